@@ -1,0 +1,285 @@
+#include "engine/elastic_force.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+#include "engine/check.h"
+#include "engine/errors.h"
+
+namespace hapvox::engine {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kMm2PaToNewton = 1e-6;  // 1 Pa x 1 mm^2 = 1e-6 N
+
+// OpenVDB leaf: 8^3 voxels, linear offset (x << 6) | (y << 3) | z.
+constexpr int kLeafDim = 8;
+constexpr int kLeafMask = kLeafDim - 1;
+
+int fibonacci_sample_count(double radius_mm, double spacing_mm, int min_count, int max_count) {
+  const double area = 4.0 * kPi * radius_mm * radius_mm;
+  const double wanted = std::ceil(area / (spacing_mm * spacing_mm));
+  return static_cast<int>(std::clamp(wanted, double(min_count), double(max_count)));
+}
+
+}  // namespace
+
+ElasticForceState::ElasticForceState(const DensityField& field)
+    : accessor(field.grid().getConstAccessor()) {}
+
+ElasticForceModel::ElasticForceModel(const DensityField& field, const ElasticForceOptions& options)
+    : field_(&field), options_(options) {
+  lame_ = lame_parameters(options.material);
+  const double d = options.tool.diameter_mm;
+  if (!std::isfinite(d) || d <= 0.0) {
+    std::ostringstream out;
+    out << "tool diameter must be positive and finite, got " << d << " mm";
+    throw InputError("tool", out.str());
+  }
+  if (!std::isfinite(options.reference_length_mm) || options.reference_length_mm < 0.0) {
+    throw InputError("material", "reference length must be positive (or 0 for the tool radius)");
+  }
+  if (!(options.sample_spacing_voxels > 0.0) || options.min_surface_samples < 1 ||
+      options.max_surface_samples < options.min_surface_samples) {
+    throw InputError("tool", "surface sampling options are out of range");
+  }
+  const double radius_mm = 0.5 * d;
+  reference_length_mm_ =
+      options.reference_length_mm > 0.0 ? options.reference_length_mm : radius_mm;
+  const Vec3d voxel = field.voxel_size_mm();
+  tool_radius_index_ = Vec3d::Constant(radius_mm).cwiseQuotient(voxel);
+
+  // Fibonacci lattice: near-uniform points of equal area, so every sample weighs
+  // 4 pi R^2 / M and the integral needs no per-point weights.
+  const int count =
+      fibonacci_sample_count(radius_mm, options.sample_spacing_voxels * voxel.minCoeff(),
+                             options.min_surface_samples, options.max_surface_samples);
+  sample_area_mm2_ = 4.0 * kPi * radius_mm * radius_mm / count;
+  const double golden_angle = kPi * (3.0 - std::sqrt(5.0));
+  std::vector<Vec3d> normals(count);
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / count;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double phi = golden_angle * i;
+    normals[i] = Vec3d(r * std::cos(phi), r * std::sin(phi), z);
+  }
+  // Order points by the 4-voxel cell they fall in so consecutive reads hit the same leaf.
+  std::vector<int> order(count);
+  std::iota(order.begin(), order.end(), 0);
+  auto cell = [&](int i) {
+    const Vec3d q = (normals[i] * radius_mm).cwiseQuotient(voxel) / 4.0;
+    return std::array<int, 3>{int(std::floor(q.z())), int(std::floor(q.y())),
+                              int(std::floor(q.x()))};
+  };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cell(a) < cell(b); });
+  sample_offsets_index_.reserve(count);
+  sample_normals_.reserve(count);
+  for (int i : order) {
+    sample_offsets_index_.push_back((normals[i] * radius_mm).cwiseQuotient(voxel).cast<float>());
+    sample_normals_.push_back(normals[i].cast<float>());
+  }
+
+  active_bbox_ = field.grid().evalActiveVoxelBoundingBox();
+  active_bbox_.expand(1);
+}
+
+bool ElasticForceModel::may_touch(const Vec3d& c) const {
+  if (active_bbox_.empty()) return false;
+  const openvdb::Coord lo = active_bbox_.min();
+  const openvdb::Coord hi = active_bbox_.max();
+  for (int a = 0; a < 3; ++a) {
+    if (c[a] + tool_radius_index_[a] < lo[a] || c[a] - tool_radius_index_[a] > hi[a]) return false;
+  }
+  return true;
+}
+
+float ElasticForceModel::sample_density(const Eigen::Vector3f& q, ElasticForceState& s) const {
+  const float fx0 = std::floor(q.x());
+  const float fy0 = std::floor(q.y());
+  const float fz0 = std::floor(q.z());
+  const float fx = q.x() - fx0;
+  const float fy = q.y() - fy0;
+  const float fz = q.z() - fz0;
+  const int ix = static_cast<int>(fx0);
+  const int iy = static_cast<int>(fy0);
+  const int iz = static_cast<int>(fz0);
+  const int lx = ix & kLeafMask;
+  const int ly = iy & kLeafMask;
+  const int lz = iz & kLeafMask;
+
+  float v000, v001, v010, v011, v100, v101, v110, v111;
+  if (lx < kLeafMask && ly < kLeafMask && lz < kLeafMask) {
+    // The 2x2x2 stencil lies in one leaf (7 times in 10): read its buffer directly.
+    const openvdb::Coord origin(ix & ~kLeafMask, iy & ~kLeafMask, iz & ~kLeafMask);
+    if (origin != s.cached_leaf_origin) {
+      s.cached_leaf_origin = origin;
+      s.cached_leaf = s.accessor.probeConstLeaf(origin);
+      if (s.cached_leaf == nullptr) s.cached_tile_value = s.accessor.getValue(origin);
+    }
+    if (s.cached_leaf == nullptr) return s.cached_tile_value;  // a tile: constant inside
+    const float* v = s.cached_leaf->buffer().data() + ((lx << 6) | (ly << 3) | lz);
+    v000 = v[0];
+    v001 = v[1];
+    v010 = v[8];
+    v011 = v[9];
+    v100 = v[64];
+    v101 = v[65];
+    v110 = v[72];
+    v111 = v[73];
+  } else {
+    const openvdb::Coord c(ix, iy, iz);
+    auto& a = s.accessor;
+    v000 = a.getValue(c);
+    v001 = a.getValue(c.offsetBy(0, 0, 1));
+    v010 = a.getValue(c.offsetBy(0, 1, 0));
+    v011 = a.getValue(c.offsetBy(0, 1, 1));
+    v100 = a.getValue(c.offsetBy(1, 0, 0));
+    v101 = a.getValue(c.offsetBy(1, 0, 1));
+    v110 = a.getValue(c.offsetBy(1, 1, 0));
+    v111 = a.getValue(c.offsetBy(1, 1, 1));
+  }
+  const float a00 = v000 + fz * (v001 - v000);
+  const float a01 = v010 + fz * (v011 - v010);
+  const float a10 = v100 + fz * (v101 - v100);
+  const float a11 = v110 + fz * (v111 - v110);
+  const float b0 = a00 + fy * (a01 - a00);
+  const float b1 = a10 + fy * (a11 - a10);
+  return b0 + fx * (b1 - b0);
+}
+
+ContactIntegral ElasticForceModel::integrate_contact(const Vec3d& center_mm,
+                                                     ElasticForceState& s) const {
+  ContactIntegral result;
+  const Vec3d center_index = field_->world_to_index(center_mm);
+  if (!may_touch(center_index)) return result;
+  const Eigen::Vector3f c = center_index.cast<float>();
+  // Accumulate in float per run, double overall: bounded rounding, few conversions.
+  Eigen::Vector3d sum_normal = Vec3d::Zero();
+  double sum_density = 0.0;
+  int in_contact = 0;
+  const std::size_t n = sample_offsets_index_.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const float rho = sample_density(c + sample_offsets_index_[k], s);
+    if (rho > 0.0f) {
+      sum_normal += (rho * sample_normals_[k]).cast<double>();
+      sum_density += rho;
+      ++in_contact;
+    }
+  }
+  result.area_vector_mm2 = sum_normal * sample_area_mm2_;
+  result.contact_area_mm2 = sum_density * sample_area_mm2_;
+  result.samples_in_contact = in_contact;
+  return result;
+}
+
+bool ElasticForceModel::touches(const Vec3d& center_mm, ElasticForceState& s) const {
+  const Vec3d center_index = field_->world_to_index(center_mm);
+  if (!may_touch(center_index)) return false;
+  const Eigen::Vector3f c = center_index.cast<float>();
+  for (const auto& offset : sample_offsets_index_) {
+    if (sample_density(c + offset, s) > 0.0f) return true;
+  }
+  return false;
+}
+
+Vec3d ElasticForceModel::refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
+                                               ElasticForceState& s) const {
+  Vec3d lo = free_mm;
+  Vec3d hi = touching_mm;
+  for (int i = 0; i < options_.onset_refinement_steps; ++i) {
+    const Vec3d mid = 0.5 * (lo + hi);
+    if (touches(mid, s)) {
+      hi = mid;
+    } else {
+      lo = mid;
+    }
+  }
+  return lo;
+}
+
+Eigen::Matrix3d ElasticForceModel::stress_pa(const Vec3d& u) const {
+  const double length = u.norm();
+  if (!(length > 0.0)) return Eigen::Matrix3d::Zero();
+  const Vec3d dir = u / length;
+  // eps = -(|u|/L) d d^T, tr(eps) = -|u|/L.
+  const double strain = -length / reference_length_mm_;
+  return lame_.lambda_pa * strain * Eigen::Matrix3d::Identity() +
+         2.0 * lame_.mu_pa * strain * (dir * dir.transpose());
+}
+
+Vec3d ElasticForceModel::traction_force_n(const Eigen::Matrix3d& stress,
+                                          const ContactIntegral& contact) {
+  // The tool's outward normal is the inward normal of the material it presses, so the
+  // material pushes on the tool with sigma n dA integrated over the contact.
+  return stress * contact.area_vector_mm2 * kMm2PaToNewton;
+}
+
+void ElasticForceModel::step(const Vec3d& x_mm, ElasticForceState& s) const {
+  ++s.steps;
+  s.contact = integrate_contact(x_mm, s);
+  const bool contact = s.contact.samples_in_contact > 0;
+  if (!contact) {
+    s.in_contact = false;
+    s.contact_origin_mm = x_mm;
+    s.displacement_mm.setZero();
+    s.stress_pa.setZero();
+    s.force_n.setZero();
+  } else {
+    if (!s.in_contact) {
+      ++s.contact_onsets;
+      if (s.has_position) {
+        s.contact_origin_mm = refine_contact_origin(s.last_position_mm, x_mm, s);
+      } else {
+        s.contact_origin_mm = x_mm;  // no free position seen yet: start unstrained
+        ++s.started_in_contact;
+      }
+    }
+    s.in_contact = true;
+    s.displacement_mm = x_mm - s.contact_origin_mm;
+    s.stress_pa = stress_pa(s.displacement_mm);
+    s.force_n = traction_force_n(s.stress_pa, s.contact);
+    if (!s.force_n.allFinite()) {
+      ++s.nonfinite_forces;
+      s.force_n.setZero();
+    }
+  }
+  s.last_position_mm = x_mm;
+  s.has_position = true;
+}
+
+ContactIntegral ElasticForceModel::integrate_contact_naive(const Vec3d& center_mm,
+                                                           ElasticForceState& s) const {
+  ContactIntegral result;
+  const Vec3d voxel = field_->voxel_size_mm();
+  const Vec3d c = field_->world_to_index(center_mm);
+  const double radius_mm = tool_radius_mm();
+  const double shell_mm = voxel.minCoeff();
+  // A shell one voxel thick has volume ~ area x thickness, so each voxel stands for
+  // voxel_volume / thickness of surface.
+  const double area_per_voxel = voxel.prod() / shell_mm;
+  const openvdb::Coord lo(int(std::floor(c.x() - tool_radius_index_.x() - 1)),
+                          int(std::floor(c.y() - tool_radius_index_.y() - 1)),
+                          int(std::floor(c.z() - tool_radius_index_.z() - 1)));
+  const openvdb::Coord hi(int(std::ceil(c.x() + tool_radius_index_.x() + 1)),
+                          int(std::ceil(c.y() + tool_radius_index_.y() + 1)),
+                          int(std::ceil(c.z() + tool_radius_index_.z() + 1)));
+  for (int i = lo.x(); i <= hi.x(); ++i) {
+    for (int j = lo.y(); j <= hi.y(); ++j) {
+      for (int k = lo.z(); k <= hi.z(); ++k) {
+        const float rho = s.accessor.getValue(openvdb::Coord(i, j, k));
+        const Vec3d r = (Vec3d(i, j, k) - c).cwiseProduct(voxel);
+        const double dist = r.norm();
+        if (rho > 0.0f && std::abs(dist - radius_mm) <= 0.5 * shell_mm && dist > 0.0) {
+          result.area_vector_mm2 += rho * area_per_voxel * (r / dist);
+          result.contact_area_mm2 += rho * area_per_voxel;
+          ++result.samples_in_contact;
+        }
+      }
+    }
+  }
+  return result;
+}
+
+}  // namespace hapvox::engine

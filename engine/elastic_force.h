@@ -1,0 +1,135 @@
+#pragma once
+// Elastic tool force (Prados, Leon Salas & Torres, "Interactive elastic deformation of 3D
+// images", Eq. 4-8), as pinned down in docs/physics.md:
+//
+//   contact      some density under the tool's surface (Eq. 7), sampled trilinearly;
+//   x0           the last contact-free tool centre, refined by bisection between ticks;
+//   strain       uniaxial compression along the push u = x_n - x0:
+//                  eps = -(|u| / L) u_hat u_hat^T          (L: reference length, mm)
+//   stress       Eq. 6: sigma = lambda tr(eps) I + 2 mu eps   (Pa)
+//   force        Eq. 8 as a surface integral over the tool's contacting surface:
+//                  F = sigma * N,  N = sum_k rho_k n_k dA_k     (mm^2; F in N after 1e-6)
+//
+// Model (const, shared) / state (mutable, one per thread), MuJoCo-style: step() is the
+// readable sequence of stages, each also public for tests and benchmarks. step() does not
+// allocate, lock, throw or do I/O.
+
+#include <openvdb/openvdb.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "engine/density_field.h"
+#include "engine/material.h"
+
+namespace hapvox::engine {
+
+struct SphereTool {
+  double diameter_mm = 8.0;
+};
+
+struct ElasticForceOptions {
+  SphereTool tool;
+  ElasticMaterial material;
+  /// L in the strain; 0 selects the tool radius (strain = indentation / radius).
+  double reference_length_mm = 0.0;
+  /// Target spacing of the surface quadrature points, in units of the smallest voxel size.
+  double sample_spacing_voxels = 1.0;
+  int min_surface_samples = 256;
+  int max_surface_samples = 4096;
+  /// Bisection steps that locate x0 between the last free and the first contact position.
+  int onset_refinement_steps = 6;
+};
+
+/// N = sum of density-weighted outward normal x area over the tool's surface samples.
+struct ContactIntegral {
+  Vec3d area_vector_mm2 = Vec3d::Zero();
+  double contact_area_mm2 = 0.0;  // sum of density x area (a scalar contact measure)
+  int samples_in_contact = 0;
+};
+
+/// Per-thread mutable state of the elastic force model.
+struct ElasticForceState {
+  explicit ElasticForceState(const DensityField& field);
+
+  // Carried between steps.
+  bool has_position = false;
+  bool in_contact = false;
+  Vec3d last_position_mm = Vec3d::Zero();
+  Vec3d contact_origin_mm = Vec3d::Zero();  // x0
+
+  // Results of the last step.
+  Vec3d displacement_mm = Vec3d::Zero();  // u = x_n - x0
+  Eigen::Matrix3d stress_pa = Eigen::Matrix3d::Zero();
+  ContactIntegral contact;
+  Vec3d force_n = Vec3d::Zero();
+
+  // Counters (problems are counted, never logged, on the force path).
+  std::uint64_t steps = 0;
+  std::uint64_t contact_onsets = 0;
+  std::uint64_t started_in_contact = 0;
+  std::uint64_t nonfinite_forces = 0;
+
+  // Read cache: one accessor per thread, plus the last leaf it found.
+  openvdb::FloatGrid::ConstAccessor accessor;
+  const openvdb::FloatTree::LeafNodeType* cached_leaf = nullptr;
+  openvdb::Coord cached_leaf_origin{openvdb::Coord::max()};
+  float cached_tile_value = 0.0f;
+};
+
+class ElasticForceModel {
+ public:
+  /// Validates the options (throws InputError on a bad material or tool) and precomputes
+  /// the surface quadrature. `field` must outlive the model.
+  ElasticForceModel(const DensityField& field, const ElasticForceOptions& options);
+
+  ElasticForceState make_state() const { return ElasticForceState(*field_); }
+
+  /// One force tick at tool centre `tool_center_mm` (volume space). Fills state's results.
+  void step(const Vec3d& tool_center_mm, ElasticForceState& state) const;
+
+  // --- Stages of step(), in order. ---
+  /// Surface integral of density-weighted normals at this tool position.
+  ContactIntegral integrate_contact(const Vec3d& tool_center_mm, ElasticForceState& state) const;
+  /// Contact test only (Eq. 7), stops at the first sample with density > 0.
+  bool touches(const Vec3d& tool_center_mm, ElasticForceState& state) const;
+  /// x0 between a contact-free position and a touching one, by bisection.
+  Vec3d refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
+                              ElasticForceState& state) const;
+  /// Eq. 6 for the uniaxial strain of displacement u (Pa).
+  Eigen::Matrix3d stress_pa(const Vec3d& displacement_mm) const;
+  /// Eq. 8: F = sigma N (N).
+  static Vec3d traction_force_n(const Eigen::Matrix3d& stress_pa, const ContactIntegral& contact);
+
+  /// The seed's approach, for benchmarks: every voxel of the tool's bounding box read
+  /// through a ValueAccessor; voxels whose centre lies within half a voxel of the sphere
+  /// contribute density x normal x area. Same quantity as integrate_contact, coarser.
+  ContactIntegral integrate_contact_naive(const Vec3d& tool_center_mm,
+                                          ElasticForceState& state) const;
+
+  const ElasticForceOptions& options() const { return options_; }
+  const LameParameters& lame() const { return lame_; }
+  double reference_length_mm() const { return reference_length_mm_; }
+  double tool_radius_mm() const { return 0.5 * options_.tool.diameter_mm; }
+  int surface_sample_count() const { return static_cast<int>(sample_offsets_index_.size()); }
+  const DensityField& field() const { return *field_; }
+
+ private:
+  float sample_density(const Eigen::Vector3f& q_index, ElasticForceState& state) const;
+  bool may_touch(const Vec3d& center_index) const;
+
+  const DensityField* field_;
+  ElasticForceOptions options_;
+  LameParameters lame_;
+  double reference_length_mm_;
+  double sample_area_mm2_;
+  Vec3d tool_radius_index_;  // radius in index units per axis
+  // Quadrature points relative to the tool centre: offset in index units and the
+  // outward unit normal, ordered so consecutive points fall in the same leaf.
+  std::vector<Eigen::Vector3f> sample_offsets_index_;
+  std::vector<Eigen::Vector3f> sample_normals_;
+  openvdb::CoordBBox active_bbox_;  // index bbox of all active voxels, grown by 1
+};
+
+}  // namespace hapvox::engine

@@ -1,0 +1,244 @@
+#include "engine/elastic_force.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "engine/errors.h"
+
+namespace hapvox::engine {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A clay block filling index z < top_k of an n^3 box (voxel faces at z = top_k - 0.5).
+DensityField make_block(int n, int top_k, const Vec3d& voxel_mm) {
+  initialize_openvdb();
+  auto grid = openvdb::FloatGrid::create(0.0f);
+  grid->tree().fill(
+      openvdb::CoordBBox(openvdb::Coord(0, 0, 0), openvdb::Coord(n - 1, n - 1, top_k - 1)), 1.0f,
+      true);
+  grid->tree().voxelizeActiveTiles();
+  return DensityField(grid, voxel_mm, Vec3d::Zero(), Vec3i(n, n, n));
+}
+
+// A solid sphere of radius r_mm centred at c_mm.
+DensityField make_ball(int n, double voxel_mm, const Vec3d& c_mm, double r_mm) {
+  initialize_openvdb();
+  auto grid = openvdb::FloatGrid::create(0.0f);
+  auto acc = grid->getAccessor();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < n; ++k)
+        if ((Vec3d(i, j, k) * voxel_mm - c_mm).norm() <= r_mm) acc.setValueOn({i, j, k}, 1.0f);
+  return DensityField(grid, Vec3d::Constant(voxel_mm), Vec3d::Zero(), Vec3i(n, n, n));
+}
+
+ElasticForceOptions options_for(double diameter_mm, double e_pa = 200e3, double nu = 0.3) {
+  ElasticForceOptions o;
+  o.tool.diameter_mm = diameter_mm;
+  o.material.youngs_modulus_pa = e_pa;
+  o.material.poisson_ratio = nu;
+  return o;
+}
+
+// docs/physics.md, "Sphere on a flat block": force for a tool whose lowest point is
+// depth_mm below the block's face, with trilinear sampling of voxel size h.
+double closed_form_block_force_n(const ElasticForceModel& model, double depth_mm, double h_mm) {
+  const double r = model.tool_radius_mm();
+  const double area = kPi * (2.0 * r * depth_mm - depth_mm * depth_mm - h_mm * h_mm / 12.0);
+  const double strain = (depth_mm + 0.5 * h_mm) / model.reference_length_mm();
+  return (model.lame().lambda_pa + 2.0 * model.lame().mu_pa) * strain * area * 1e-6;
+}
+
+TEST(ElasticForce, ZeroOutOfContact) {
+  const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
+  const ElasticForceModel model(field, options_for(8.0));
+  ElasticForceState state = model.make_state();
+  const double face_z = 23.5 * 0.5;
+  for (double gap : {5.0, 1.0, 0.3, 0.01}) {
+    model.step(Vec3d(12.1, 11.7, face_z + 4.0 + 0.25 + gap), state);  // 0.25: ramp half-width
+    EXPECT_FALSE(state.in_contact) << gap;
+    EXPECT_EQ(state.force_n, Vec3d::Zero()) << gap;
+  }
+  // Far outside the volume's active box too.
+  model.step(Vec3d(-100, -100, -100), state);
+  EXPECT_EQ(state.force_n, Vec3d::Zero());
+}
+
+TEST(ElasticForce, SphereOnBlockMatchesClosedForm) {
+  const double h = 0.5;
+  const DensityField field = make_block(64, 32, Vec3d::Constant(h));
+  ElasticForceOptions options = options_for(10.0);
+  options.sample_spacing_voxels = 0.5;
+  options.max_surface_samples = 20000;
+  const ElasticForceModel model(field, options);
+  ElasticForceState state = model.make_state();
+  const double face_z = 31.5 * h;
+  const double r = model.tool_radius_mm();
+  const Vec3d xy(16.13, 15.87, 0.0);  // off the voxel lattice on purpose
+  // Slow press from above: 2 um per tick.
+  double checked = 0;
+  for (double z = face_z + r + 1.0; z > face_z + r - 0.5 * r; z -= 0.002) {
+    model.step(xy + Vec3d(0, 0, z), state);
+    const double depth = face_z + r - z;
+    if (depth >= 2.0 * h) {
+      const double expected = closed_form_block_force_n(model, depth, h);
+      ASSERT_NEAR(state.force_n.z(), expected, 0.02 * expected) << "depth " << depth;
+      EXPECT_LT(std::hypot(state.force_n.x(), state.force_n.y()), 0.01 * expected);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 100);
+}
+
+TEST(ElasticForce, LinearInDisplacementAtFixedContact) {
+  const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
+  const ElasticForceModel model(field, options_for(8.0));
+  ElasticForceState state = model.make_state();
+  const Vec3d p(12.0, 12.0, 23.5 * 0.5 + 4.0 - 1.0);
+  const ContactIntegral contact = model.integrate_contact(p, state);
+  ASSERT_GT(contact.samples_in_contact, 0);
+  const Vec3d u(0.1, -0.05, -0.4);
+  const Vec3d f1 = ElasticForceModel::traction_force_n(model.stress_pa(u), contact);
+  for (double scale : {0.25, 0.5, 2.0, 3.0, 10.0}) {
+    const Vec3d fs = ElasticForceModel::traction_force_n(model.stress_pa(scale * u), contact);
+    EXPECT_LT((fs - scale * f1).norm(), 1e-12 * fs.norm()) << scale;
+  }
+}
+
+TEST(ElasticForce, ProportionalToYoungsModulus) {
+  const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
+  const ElasticForceModel soft(field, options_for(8.0, 100e3));
+  const ElasticForceModel stiff(field, options_for(8.0, 370e3));
+  ElasticForceState a = soft.make_state();
+  ElasticForceState b = stiff.make_state();
+  for (double z = 20.0; z > 14.0; z -= 0.01) {
+    const Vec3d p(12.3, 11.9, z);
+    soft.step(p, a);
+    stiff.step(p, b);
+    EXPECT_LE((b.force_n - 3.7 * a.force_n).norm(), 1e-9 * b.force_n.norm());
+  }
+  EXPECT_GT(b.force_n.norm(), 0.0);
+}
+
+TEST(ElasticForce, PointsOutOfTheMaterial) {
+  const double r_ball = 12.0;
+  const Vec3d centre(16.0, 16.0, 16.0);
+  const DensityField field = make_ball(64, 0.5, centre, r_ball);
+  const ElasticForceModel model(field, options_for(6.0));
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  for (int trial = 0; trial < 12; ++trial) {
+    const Vec3d dir = Vec3d(normal(rng), normal(rng), normal(rng)).normalized();
+    ElasticForceState state = model.make_state();
+    // Approach the ball's centre along -dir until 1.5 mm past first contact.
+    double first_contact = -1.0;
+    for (double s = r_ball + 6.0; s > r_ball - 2.0; s -= 0.01) {
+      model.step(centre + s * dir, state);
+      if (state.in_contact && first_contact < 0) first_contact = s;
+      if (first_contact > 0 && first_contact - s >= 1.5) break;
+    }
+    ASSERT_GT(state.force_n.norm(), 0.0);
+    const double cos_angle = state.force_n.normalized().dot(dir);
+    EXPECT_GT(cos_angle, std::cos(2.0 * kPi / 180.0)) << "trial " << trial;
+  }
+}
+
+TEST(ElasticForce, NoJumpOnSlowConstantSpeedPress) {
+  const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
+  const ElasticForceModel model(field, options_for(8.0));
+  ElasticForceState state = model.make_state();
+  // 10 mm/s at 1 kHz, slightly oblique so the tool crosses voxel boundaries on all axes.
+  const Vec3d start(11.0, 11.0, 18.0);
+  const Vec3d velocity = Vec3d(0.7, 0.4, -10.0);
+  std::vector<Vec3d> forces;
+  for (int tick = 0; tick <= 500; ++tick) {
+    model.step(start + velocity * (tick * 1e-3), state);
+    forces.push_back(state.force_n);
+  }
+  double peak = 0.0;
+  double max_jump = 0.0;
+  for (std::size_t i = 1; i < forces.size(); ++i) {
+    peak = std::max(peak, forces[i].norm());
+    max_jump = std::max(max_jump, (forces[i] - forces[i - 1]).norm());
+  }
+  ASSERT_GT(peak, 0.1);
+  EXPECT_LT(max_jump, 0.02 * peak) << "peak " << peak;
+}
+
+TEST(ElasticForce, DeterministicAcrossRuns) {
+  const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
+  const ElasticForceModel model(field, options_for(8.0));
+  auto run = [&] {
+    ElasticForceState state = model.make_state();
+    std::vector<Vec3d> out;
+    for (int tick = 0; tick < 800; ++tick) {
+      const double t = tick * 1e-3;
+      model.step(Vec3d(12 + 2 * std::sin(3 * t), 12 + std::cos(5 * t), 18 - 8 * t), state);
+      out.push_back(state.force_n);
+    }
+    return out;
+  };
+  EXPECT_EQ(run(), run());
+}
+
+TEST(ElasticForce, NaiveBaselineAgreesWithSurfaceQuadrature) {
+  const DensityField field = make_block(64, 32, Vec3d::Constant(0.5));
+  const ElasticForceModel model(field, options_for(16.0));
+  ElasticForceState state = model.make_state();
+  const Vec3d p(16.2, 15.9, 31.5 * 0.5 + 8.0 - 3.0);
+  const ContactIntegral fast = model.integrate_contact(p, state);
+  const ContactIntegral naive = model.integrate_contact_naive(p, state);
+  ASSERT_GT(fast.area_vector_mm2.norm(), 0.0);
+  EXPECT_NEAR(naive.area_vector_mm2.z(), fast.area_vector_mm2.z(),
+              0.1 * std::abs(fast.area_vector_mm2.z()));
+}
+
+TEST(ElasticForce, AnisotropicVoxelsMatchTheClosedForm) {
+  // Thin z voxels (0.25 mm) under 0.5 mm x/y voxels: the tool is an ellipsoid in index
+  // space, the force must still be the sphere's, with the ramp width of the z spacing.
+  const double hz = 0.25;
+  const DensityField field = make_block(48, 48, Vec3d(0.5, 0.5, hz));
+  ElasticForceOptions options = options_for(8.0);
+  options.sample_spacing_voxels = 0.5;
+  options.max_surface_samples = 20000;
+  const ElasticForceModel model(field, options);
+  ElasticForceState state = model.make_state();
+  const double face_z = 47.5 * hz;
+  for (int tick = 0; tick < 700; ++tick) {
+    const double depth = -5.0 + tick * 0.01;
+    model.step(Vec3d(12.1, 12.2, face_z + 4.0 - depth), state);
+    if (depth >= 2 * hz) {
+      const double expected = closed_form_block_force_n(model, depth, hz);
+      ASSERT_NEAR(state.force_n.z(), expected, 0.02 * expected) << "depth " << depth;
+    }
+  }
+}
+
+TEST(ElasticForce, RejectsNonsenseMaterialAndTool) {
+  const DensityField field = make_block(16, 8, Vec3d::Constant(1.0));
+  auto message = [&](ElasticForceOptions o) {
+    try {
+      ElasticForceModel model(field, o);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message(options_for(4.0, 0.0)),
+            "material: Young's modulus must be positive and finite, got 0 Pa");
+  EXPECT_EQ(message(options_for(4.0, -5.0)),
+            "material: Young's modulus must be positive and finite, got -5 Pa");
+  EXPECT_EQ(message(options_for(4.0, 1e5, 0.5)),
+            "material: Poisson's ratio must lie in (-1, 0.5), got 0.5");
+  EXPECT_EQ(message(options_for(4.0, 1e5, -1.0)),
+            "material: Poisson's ratio must lie in (-1, 0.5), got -1");
+  EXPECT_EQ(message(options_for(4.0, 1e5, NAN)),
+            "material: Poisson's ratio must lie in (-1, 0.5), got nan");
+  EXPECT_EQ(message(options_for(0.0)), "tool: tool diameter must be positive and finite, got 0 mm");
+}
+
+}  // namespace
+}  // namespace hapvox::engine
