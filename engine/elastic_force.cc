@@ -199,6 +199,22 @@ Vec3d ElasticForceModel::refine_contact_origin(const Vec3d& free_mm, const Vec3d
   return lo;
 }
 
+Vec3d ElasticForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origin_mm,
+                                              const ContactIntegral& contact) const {
+  const double ratio = options_.slip_ratio;
+  const double n_length = contact.area_vector_mm2.norm();
+  if (!(ratio >= 0.0) || std::isinf(ratio) || !(n_length > 0.0)) return origin_mm;
+  // N points from the tool into the material: the direction of a normal press.
+  const Vec3d inward = contact.area_vector_mm2 / n_length;
+  const Vec3d u = x_mm - origin_mm;
+  const double u_normal = std::max(0.0, u.dot(inward));
+  const Vec3d u_tangent = u - u.dot(inward) * inward;
+  const double t_length = u_tangent.norm();
+  const double t_max = ratio * u_normal;
+  if (t_length <= t_max) return origin_mm;                  // sticking
+  return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping
+}
+
 Eigen::Matrix3d ElasticForceModel::stress_pa(const Vec3d& u) const {
   const double length = u.norm();
   if (!(length > 0.0)) return Eigen::Matrix3d::Zero();
@@ -237,6 +253,7 @@ void ElasticForceModel::step(const Vec3d& x_mm, ElasticForceState& s) const {
       }
     }
     s.in_contact = true;
+    s.contact_origin_mm = slide_contact_origin(x_mm, s.contact_origin_mm, s.contact);
     s.displacement_mm = x_mm - s.contact_origin_mm;
     s.stress_pa = stress_pa(s.displacement_mm);
     s.force_n = traction_force_n(s.stress_pa, s.contact);

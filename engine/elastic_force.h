@@ -38,6 +38,10 @@ struct ElasticForceOptions {
   double sample_spacing_voxels = 1.0;
   int min_surface_samples = 256;
   int max_surface_samples = 4096;
+  /// Stick-slip limit on the contact origin (hapvox's extension, docs/physics.md): x0
+  /// follows the tool tangentially once the tangential displacement exceeds
+  /// slip_ratio x the normal indentation. Infinity (or < 0) keeps the paper's fixed x0.
+  double slip_ratio = 0.5;
   /// Bisection steps that locate x0 between the last free and the first contact position.
   int onset_refinement_steps = 6;
 };
@@ -97,6 +101,9 @@ class ElasticForceModel {
   /// x0 between a contact-free position and a touching one, by bisection.
   Vec3d refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
                               ElasticForceState& state) const;
+  /// Moves x0 tangentially so |u_t| <= slip_ratio |u_n| (n from the contact integral).
+  Vec3d slide_contact_origin(const Vec3d& tool_center_mm, const Vec3d& origin_mm,
+                             const ContactIntegral& contact) const;
   /// Eq. 6 for the uniaxial strain of displacement u (Pa).
   Eigen::Matrix3d stress_pa(const Vec3d& displacement_mm) const;
   /// Eq. 8: F = sigma N (N).

@@ -16,8 +16,10 @@ struct LameParameters {
   double mu_pa = 0.0;
 };
 
-/// Throws hapvox::InputError(source, ...) unless E > 0 and finite and -1 < nu < 0.5.
-void validate_material(const ElasticMaterial& material, const std::string& source);
+/// Throws hapvox::InputError unless E > 0 and finite and -1 < nu < 0.5; the error's source
+/// is `e_source` or `nu_source` (a file, a flag) for the offending value.
+void validate_material(const ElasticMaterial& material, const std::string& e_source,
+                       const std::string& nu_source);
 
 /// lambda = E nu / ((1 + nu)(1 - 2 nu)), mu = E / (2 (1 + nu)). Validates first.
 LameParameters lame_parameters(const ElasticMaterial& material);

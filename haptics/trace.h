@@ -49,7 +49,9 @@ struct DeviceTransform {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Vec3d offset_mm = Vec3d::Zero();
 
-  Vec3d apply(const Vec3d& p_device_mm) const { return offset_mm + rotation * (scale * p_device_mm); }
+  Vec3d apply(const Vec3d& p_device_mm) const {
+    return offset_mm + rotation * (scale * p_device_mm);
+  }
 };
 
 /// Rotation from Euler angles in degrees, applied about x, then y, then z.

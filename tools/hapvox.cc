@@ -1,1 +1,48 @@
-int main() { return 0; }
+// hapvox: touch, press and sculpt 3D images with a haptic tool.
+//
+// Exit codes: 0 success, 2 bad input (files, traces, flags, configs), 1 internal error.
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+
+#include "engine/errors.h"
+#include "engine/version.h"
+#include "haptics/session.h"
+#include "tools/cli.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"hapvox: touch, press and sculpt 3D images with a haptic tool at 1 kHz", "hapvox"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", [] {
+    std::string text;
+    for (const auto& [name, version] : hapvox::haptics::library_versions()) {
+      text += (text.empty() ? "" : "\n") + name + " " + version;
+    }
+    return text;
+  });
+  hapvox::cli::set_command_line(argc, argv);
+  hapvox::cli::add_replay_command(app);
+  hapvox::cli::add_info_command(app);
+  hapvox::cli::add_bench_command(app);
+  hapvox::cli::add_trace_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "hapvox: error: %s (see hapvox --help)\n", e.what());
+    return 2;
+  } catch (const hapvox::InputError& e) {
+    std::fprintf(stderr, "hapvox: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hapvox: internal error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

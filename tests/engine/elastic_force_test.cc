@@ -168,6 +168,33 @@ TEST(ElasticForce, NoJumpOnSlowConstantSpeedPress) {
   EXPECT_LT(max_jump, 0.02 * peak) << "peak " << peak;
 }
 
+TEST(ElasticForce, SlidingForceIsBoundedByTheSlipRatioAndOpposesMotion) {
+  const DensityField field = make_block(96, 24, Vec3d::Constant(0.5));
+  auto slide = [&](double slip_ratio) {
+    ElasticForceOptions options = options_for(8.0);
+    options.slip_ratio = slip_ratio;
+    const ElasticForceModel model(field, options);
+    ElasticForceState state = model.make_state();
+    const double z_pressed = 23.5 * 0.5 + 4.0 - 1.0;  // 1 mm into the face
+    for (double z = z_pressed + 2.0; z > z_pressed; z -= 0.01) model.step(Vec3d(8, 24, z), state);
+    std::vector<Vec3d> forces;
+    for (double x = 8.0; x <= 38.0; x += 0.01) {
+      model.step(Vec3d(x, 24, z_pressed), state);
+      forces.push_back(state.force_n);
+    }
+    return forces;
+  };
+  const std::vector<Vec3d> slipping = slide(0.5);
+  const std::vector<Vec3d> sticking = slide(INFINITY);
+  // Steady sliding: the force after 10 mm equals the force after 30 mm.
+  EXPECT_LT((slipping.back() - slipping[1000]).norm(), 0.01 * slipping.back().norm());
+  // Tangential force opposes the motion (+x) and stays within the slip limit.
+  EXPECT_LT(slipping.back().x(), 0.0);
+  EXPECT_GT(slipping.back().z(), 0.0);
+  // The paper's fixed x0 keeps loading the spring as the tool slides.
+  EXPECT_GT(sticking.back().norm(), 3.0 * slipping.back().norm());
+}
+
 TEST(ElasticForce, DeterministicAcrossRuns) {
   const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
   const ElasticForceModel model(field, options_for(8.0));

@@ -1,0 +1,89 @@
+#include "haptics/replay.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "engine/check.h"
+
+namespace hapvox::haptics {
+
+Vec3d safe_force(const Vec3d& raw_n, double ramp, const DeviceLimits& limits, bool* clamped,
+                 bool* nonfinite) {
+  *clamped = false;
+  *nonfinite = !raw_n.allFinite();
+  if (*nonfinite) return Vec3d::Zero();
+  Vec3d force = std::clamp(ramp, 0.0, 1.0) * raw_n;
+  const double magnitude = force.norm();
+  if (magnitude > limits.max_force_n) {
+    force *= limits.max_force_n / magnitude;
+    *clamped = true;
+  }
+  return force;
+}
+
+double percentile(std::vector<double> values, double pct) {
+  if (values.empty()) return 0.0;
+  const std::size_t rank = static_cast<std::size_t>(
+      std::ceil(std::clamp(pct, 0.0, 100.0) / 100.0 * static_cast<double>(values.size())));
+  const std::size_t index = rank == 0 ? 0 : rank - 1;
+  std::nth_element(values.begin(), values.begin() + index, values.end());
+  return values[index];
+}
+
+ReplaySummary replay_lockstep(const engine::ElasticForceModel& model, const TraceDevice& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress) {
+  using Clock = std::chrono::steady_clock;
+  ReplaySummary summary;
+  summary.ticks = device.tick_count();
+  summary.trace_gaps = device.trace().gap_count;
+  summary.trace_held_s = device.trace().held_time_s;
+  if (summary.ticks == 0) return summary;
+  const double dt_s = 1.0 / device.rate_hz();
+  const double t0 = device.time_s(0);
+  summary.duration_s = device.time_s(summary.ticks - 1) - t0;
+
+  engine::ElasticForceState state = model.make_state();
+  std::vector<double> compute_us(summary.ticks);
+  const std::size_t progress_every = std::max<std::size_t>(1, summary.ticks / 100);
+
+  for (std::size_t tick = 0; tick < summary.ticks; ++tick) {
+    TickRecord row;
+    row.time_s = device.time_s(tick);
+    row.device_position_mm = device.device_position_mm(tick);
+    row.tool_position_mm = device.tool_position_mm(tick);
+    row.holding = device.holding(tick) ? 1 : 0;
+
+    const auto start = Clock::now();
+    model.step(row.tool_position_mm, state);
+    const double ramp = limits.ramp_in_s > 0.0 ? (row.time_s - t0) / limits.ramp_in_s : 1.0;
+    bool clamped = false;
+    bool nonfinite = false;
+    row.force_n = safe_force(state.force_n, ramp, limits, &clamped, &nonfinite);
+    const auto end = Clock::now();
+
+    row.displacement_mm = state.displacement_mm;
+    row.contact_area_mm2 = state.contact.contact_area_mm2;
+    row.contact = state.in_contact ? 1 : 0;
+    row.clamped = clamped ? 1 : 0;
+    row.compute_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(end - start).count();
+    compute_us[tick] = 1e-3 * static_cast<double>(row.compute_ns);
+
+    summary.contact_ticks += row.contact;
+    summary.clamped_ticks += row.clamped;
+    summary.nonfinite_forces += nonfinite ? 1 : 0;
+    summary.peak_force_n = std::max(summary.peak_force_n, row.force_n.norm());
+    if (session != nullptr) session->append(row);
+    if (progress && (tick + 1) % progress_every == 0) progress(tick + 1, summary.ticks);
+  }
+  summary.contact_time_s = static_cast<double>(summary.contact_ticks) * dt_s;
+  summary.contact_onsets = state.contact_onsets;
+  summary.nonfinite_forces += state.nonfinite_forces;
+  summary.compute_p50_us = percentile(compute_us, 50.0);
+  summary.compute_p99_us = percentile(compute_us, 99.0);
+  summary.compute_max_us = *std::max_element(compute_us.begin(), compute_us.end());
+  return summary;
+}
+
+}  // namespace hapvox::haptics

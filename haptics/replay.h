@@ -1,0 +1,80 @@
+#pragma once
+// Lockstep replay: the force loop driven by a simulated 1 kHz clock. Tick k happens at
+// trace time t0 + k / rate; the device position comes from the resampled trace, the force
+// from the engine, and each tick is recorded. Nothing here depends on the wall clock
+// except the per-tick compute time, so two replays give identical physics datasets.
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "engine/elastic_force.h"
+#include "haptics/session.h"
+#include "haptics/trace.h"
+
+namespace hapvox::haptics {
+
+/// The haptic device's safety envelope.
+struct DeviceLimits {
+  double max_force_n = 10.0;  // forces are clamped to this magnitude, direction kept
+  double ramp_in_s = 0.1;     // forces scale linearly from 0 to 1 over the first ramp_in_s
+};
+
+/// Makes a raw model force safe to send: non-finite -> zero (counted by the caller via
+/// `nonfinite`), ramped by `ramp` in [0, 1], magnitude clamped to max_force_n.
+Vec3d safe_force(const Vec3d& raw_n, double ramp, const DeviceLimits& limits, bool* clamped,
+                 bool* nonfinite);
+
+/// A simulated haptic device that replays a resampled trace through a device-to-volume
+/// transform: the tool position at tick k.
+class TraceDevice {
+ public:
+  TraceDevice(ResampledTrace trace, const DeviceTransform& transform)
+      : trace_(std::move(trace)), transform_(transform) {}
+
+  std::size_t tick_count() const { return trace_.time_s.size(); }
+  double rate_hz() const { return trace_.rate_hz; }
+  double time_s(std::size_t tick) const { return trace_.time_s[tick]; }
+  const Vec3d& device_position_mm(std::size_t tick) const { return trace_.position_mm[tick]; }
+  Vec3d tool_position_mm(std::size_t tick) const {
+    return transform_.apply(trace_.position_mm[tick]);
+  }
+  bool holding(std::size_t tick) const { return trace_.holding[tick] != 0; }
+  const ResampledTrace& trace() const { return trace_; }
+  const DeviceTransform& transform() const { return transform_; }
+
+ private:
+  ResampledTrace trace_;
+  DeviceTransform transform_;
+};
+
+struct ReplaySummary {
+  std::size_t ticks = 0;
+  std::size_t contact_ticks = 0;
+  double contact_time_s = 0.0;
+  double duration_s = 0.0;
+  double peak_force_n = 0.0;
+  std::size_t clamped_ticks = 0;
+  std::size_t nonfinite_forces = 0;
+  std::uint64_t contact_onsets = 0;
+  int trace_gaps = 0;
+  double trace_held_s = 0.0;
+  // Per-tick compute time (wall clock), microseconds.
+  double compute_p50_us = 0.0;
+  double compute_p99_us = 0.0;
+  double compute_max_us = 0.0;
+};
+
+/// Called now and then with (ticks done, ticks total).
+using ProgressFn = std::function<void(std::size_t, std::size_t)>;
+
+/// Runs every tick of `device` through `model` on the simulated clock, appending a row per
+/// tick to `session` (if not null). Does not close the session.
+ReplaySummary replay_lockstep(const engine::ElasticForceModel& model, const TraceDevice& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress = {});
+
+/// Percentile (0..100) of a sample by nearest rank; 0 for an empty sample.
+double percentile(std::vector<double> values, double pct);
+
+}  // namespace hapvox::haptics

@@ -1,0 +1,320 @@
+#include "haptics/session.h"
+
+#include <openvdb/version.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include "engine/check.h"
+#include "engine/errors.h"
+#include "engine/version.h"
+
+namespace hapvox::haptics {
+namespace {
+
+// Rows per HDF5 chunk: one second at 1 kHz.
+constexpr hsize_t kChunkRows = 1024;
+
+hid_t create_column(hid_t file, const char* name, hid_t file_type, hsize_t columns,
+                    const char* units) {
+  const int rank = columns == 1 ? 1 : 2;
+  const hsize_t dims[2] = {0, columns};
+  const hsize_t max_dims[2] = {H5S_UNLIMITED, columns};
+  const hsize_t chunk[2] = {kChunkRows, columns};
+  const hid_t space = H5Screate_simple(rank, dims, max_dims);
+  const hid_t props = H5Pcreate(H5P_DATASET_CREATE);
+  H5Pset_chunk(props, rank, chunk);
+  const hid_t dataset = H5Dcreate2(file, name, file_type, space, H5P_DEFAULT, props, H5P_DEFAULT);
+  H5Pclose(props);
+  H5Sclose(space);
+  HAPVOX_CHECK(dataset >= 0);
+  if (units != nullptr) {
+    const hid_t str_type = H5Tcopy(H5T_C_S1);
+    H5Tset_size(str_type, std::strlen(units) + 1);
+    const hid_t scalar = H5Screate(H5S_SCALAR);
+    const hid_t attr = H5Acreate2(dataset, "units", str_type, scalar, H5P_DEFAULT, H5P_DEFAULT);
+    H5Awrite(attr, str_type, units);
+    H5Aclose(attr);
+    H5Sclose(scalar);
+    H5Tclose(str_type);
+  }
+  return dataset;
+}
+
+void write_root_attribute(hid_t file, const std::string& name, hid_t type, hid_t space,
+                          const void* data) {
+  if (H5Aexists(file, name.c_str()) > 0) H5Adelete(file, name.c_str());
+  const hid_t attr = H5Acreate2(file, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
+  HAPVOX_CHECK(attr >= 0);
+  H5Awrite(attr, type, data);
+  H5Aclose(attr);
+}
+
+}  // namespace
+
+SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
+    : path_(std::move(path)), partial_path_(path_ + ".partial"), flush_every_(flush_every_ticks) {
+  HAPVOX_CHECK_GT(flush_every_, 0u);
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  file_ = H5Fcreate(partial_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (file_ < 0) throw InputError(path_, "cannot create session file " + partial_path_);
+  ds_.time_s = create_column(file_, "time_s", H5T_IEEE_F64LE, 1, "s");
+  ds_.device_position_mm = create_column(file_, "device_position_mm", H5T_IEEE_F64LE, 3, "mm");
+  ds_.tool_position_mm = create_column(file_, "tool_position_mm", H5T_IEEE_F64LE, 3, "mm");
+  ds_.force_n = create_column(file_, "force_n", H5T_IEEE_F64LE, 3, "N");
+  ds_.displacement_mm = create_column(file_, "displacement_mm", H5T_IEEE_F64LE, 3, "mm");
+  ds_.contact_area_mm2 = create_column(file_, "contact_area_mm2", H5T_IEEE_F64LE, 1, "mm^2");
+  ds_.contact = create_column(file_, "contact", H5T_STD_U8LE, 1, nullptr);
+  ds_.holding = create_column(file_, "holding", H5T_STD_U8LE, 1, nullptr);
+  ds_.clamped = create_column(file_, "clamped", H5T_STD_U8LE, 1, nullptr);
+  // Wall-clock measurements live under /timing: the only data that differ between runs.
+  const hid_t timing = H5Gcreate2(file_, "timing", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ds_.compute_ns = create_column(timing, "compute_ns", H5T_STD_I64LE, 1, "ns");
+  H5Gclose(timing);
+  set_attribute("complete", std::int64_t{0});
+  buffer_.reserve(flush_every_);
+}
+
+SessionWriter::~SessionWriter() {
+  if (file_ >= 0) {
+    // Not closed: keep what was flushed in PATH.partial for post-mortems, never at PATH.
+    flush_rows();
+    close_datasets();
+    H5Fclose(file_);
+  }
+}
+
+void SessionWriter::close_datasets() {
+  for (hid_t d : {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n,
+                  ds_.displacement_mm, ds_.contact_area_mm2, ds_.contact, ds_.holding,
+                  ds_.clamped, ds_.compute_ns}) {
+    H5Dclose(d);
+  }
+}
+
+void SessionWriter::set_attribute(const std::string& name, const std::string& value) {
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, value.size() + 1);
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  const hid_t space = H5Screate(H5S_SCALAR);
+  write_root_attribute(file_, name, type, space, value.c_str());
+  H5Sclose(space);
+  H5Tclose(type);
+}
+
+void SessionWriter::set_attribute(const std::string& name, double value) {
+  const hid_t space = H5Screate(H5S_SCALAR);
+  write_root_attribute(file_, name, H5T_NATIVE_DOUBLE, space, &value);
+  H5Sclose(space);
+}
+
+void SessionWriter::set_attribute(const std::string& name, std::int64_t value) {
+  const hid_t space = H5Screate(H5S_SCALAR);
+  write_root_attribute(file_, name, H5T_NATIVE_INT64, space, &value);
+  H5Sclose(space);
+}
+
+void SessionWriter::set_attribute(const std::string& name, const Vec3d& value) {
+  const hsize_t dims[1] = {3};
+  const hid_t space = H5Screate_simple(1, dims, nullptr);
+  write_root_attribute(file_, name, H5T_NATIVE_DOUBLE, space, value.data());
+  H5Sclose(space);
+}
+
+void SessionWriter::append(const TickRecord& row) {
+  HAPVOX_CHECK(!closed_);
+  buffer_.push_back(row);
+  if (buffer_.size() >= flush_every_) flush_rows();
+}
+
+void SessionWriter::write_column(hid_t dataset, hid_t mem_type, const void* data,
+                                 std::size_t columns) {
+  const hsize_t n = buffer_.size();
+  const int rank = columns == 1 ? 1 : 2;
+  const hsize_t new_dims[2] = {rows_written_ + n, columns};
+  HAPVOX_CHECK(H5Dset_extent(dataset, new_dims) >= 0);
+  const hid_t file_space = H5Dget_space(dataset);
+  const hsize_t start[2] = {rows_written_, 0};
+  const hsize_t count[2] = {n, columns};
+  H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, count, nullptr);
+  const hid_t mem_space = H5Screate_simple(rank, count, nullptr);
+  HAPVOX_CHECK(H5Dwrite(dataset, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0);
+  H5Sclose(mem_space);
+  H5Sclose(file_space);
+}
+
+void SessionWriter::flush_rows() {
+  if (buffer_.empty()) return;
+  const std::size_t n = buffer_.size();
+  std::vector<double> scalars(n);
+  std::vector<double> vectors(3 * n);
+  std::vector<std::uint8_t> bytes(n);
+  std::vector<std::int64_t> ints(n);
+  auto scalar_column = [&](hid_t ds, auto field) {
+    for (std::size_t i = 0; i < n; ++i) scalars[i] = field(buffer_[i]);
+    write_column(ds, H5T_NATIVE_DOUBLE, scalars.data(), 1);
+  };
+  auto vector_column = [&](hid_t ds, auto field) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3d v = field(buffer_[i]);
+      for (int a = 0; a < 3; ++a) vectors[3 * i + a] = v[a];
+    }
+    write_column(ds, H5T_NATIVE_DOUBLE, vectors.data(), 3);
+  };
+  auto byte_column = [&](hid_t ds, auto field) {
+    for (std::size_t i = 0; i < n; ++i) bytes[i] = field(buffer_[i]);
+    write_column(ds, H5T_NATIVE_UINT8, bytes.data(), 1);
+  };
+  scalar_column(ds_.time_s, [](const TickRecord& r) { return r.time_s; });
+  vector_column(ds_.device_position_mm, [](const TickRecord& r) { return r.device_position_mm; });
+  vector_column(ds_.tool_position_mm, [](const TickRecord& r) { return r.tool_position_mm; });
+  vector_column(ds_.force_n, [](const TickRecord& r) { return r.force_n; });
+  vector_column(ds_.displacement_mm, [](const TickRecord& r) { return r.displacement_mm; });
+  scalar_column(ds_.contact_area_mm2, [](const TickRecord& r) { return r.contact_area_mm2; });
+  byte_column(ds_.contact, [](const TickRecord& r) { return r.contact; });
+  byte_column(ds_.holding, [](const TickRecord& r) { return r.holding; });
+  byte_column(ds_.clamped, [](const TickRecord& r) { return r.clamped; });
+  for (std::size_t i = 0; i < n; ++i) ints[i] = buffer_[i].compute_ns;
+  write_column(ds_.compute_ns, H5T_NATIVE_INT64, ints.data(), 1);
+  rows_written_ += n;
+  buffer_.clear();
+  H5Fflush(file_, H5F_SCOPE_LOCAL);
+}
+
+void SessionWriter::close() {
+  HAPVOX_CHECK(!closed_);
+  flush_rows();
+  set_attribute("rows", static_cast<std::int64_t>(rows_written_));
+  set_attribute("complete", std::int64_t{1});
+  for (hid_t d :
+       {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n, ds_.displacement_mm,
+        ds_.contact_area_mm2, ds_.contact, ds_.holding, ds_.clamped, ds_.compute_ns}) {
+    H5Dclose(d);
+  }
+  const herr_t status = H5Fclose(file_);
+  file_ = -1;
+  closed_ = true;
+  if (status < 0) throw InputError(path_, "failed to finish writing the session file");
+  std::error_code ec;
+  std::filesystem::rename(partial_path_, path_, ec);
+  if (ec) throw InputError(path_, "cannot move " + partial_path_ + " into place: " + ec.message());
+}
+
+void SessionWriter::abandon() {
+  if (file_ >= 0) {
+    close_datasets();
+    H5Fclose(file_);
+    file_ = -1;
+  }
+  closed_ = true;
+  std::error_code ec;
+  std::filesystem::remove(partial_path_, ec);
+}
+
+std::vector<std::pair<std::string, std::string>> library_versions() {
+  unsigned major = 0, minor = 0, release = 0;
+  H5get_libversion(&major, &minor, &release);
+  std::ostringstream hdf5;
+  hdf5 << major << "." << minor << "." << release;
+  std::ostringstream eigen;
+  eigen << EIGEN_WORLD_VERSION << "." << EIGEN_MAJOR_VERSION << "." << EIGEN_MINOR_VERSION;
+  return {{"hapvox", kVersion},
+          {"openvdb", OPENVDB_LIBRARY_VERSION_STRING},
+          {"hdf5", hdf5.str()},
+          {"eigen", eigen.str()}};
+}
+
+}  // namespace hapvox::haptics
+
+namespace hapvox::haptics {
+namespace {
+
+struct Handle {
+  hid_t id;
+  herr_t (*close)(hid_t);
+  ~Handle() {
+    if (id >= 0) close(id);
+  }
+};
+
+std::string attribute_text(hid_t attr) {
+  const Handle type{H5Aget_type(attr), H5Tclose};
+  const Handle space{H5Aget_space(attr), H5Sclose};
+  const hssize_t count = H5Sget_simple_extent_npoints(space.id);
+  const H5T_class_t cls = H5Tget_class(type.id);
+  std::ostringstream out;
+  if (cls == H5T_STRING && !H5Tis_variable_str(type.id)) {
+    std::string text(H5Tget_size(type.id), '\0');
+    H5Aread(attr, type.id, text.data());
+    out << text.c_str();
+  } else if (cls == H5T_INTEGER || cls == H5T_FLOAT) {
+    std::vector<double> values(static_cast<std::size_t>(std::max<hssize_t>(count, 1)));
+    H5Aread(attr, H5T_NATIVE_DOUBLE, values.data());
+    for (std::size_t i = 0; i < values.size(); ++i) out << (i ? " " : "") << values[i];
+  } else {
+    out << "(unsupported type)";
+  }
+  return out.str();
+}
+
+herr_t collect_attribute(hid_t location, const char* name, const H5A_info_t*, void* data) {
+  auto* info = static_cast<SessionInfo*>(data);
+  const Handle attr{H5Aopen(location, name, H5P_DEFAULT), H5Aclose};
+  info->attributes.emplace_back(name, attribute_text(attr.id));
+  return 0;
+}
+
+herr_t collect_dataset(hid_t, const char* name, const H5O_info_t* object, void* data) {
+  if (object->type == H5O_TYPE_DATASET) {
+    static_cast<SessionInfo*>(data)->datasets.push_back(std::string("/") + name);
+  }
+  return 0;
+}
+
+}  // namespace
+
+bool is_hdf5_file(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  return H5Fis_hdf5(path.c_str()) > 0;
+}
+
+SessionInfo read_session_info(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw InputError(path, "cannot open file");
+  if (!is_hdf5_file(path)) throw InputError(path, "not an HDF5 file");
+  const Handle file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
+  if (file.id < 0) throw InputError(path, "cannot open HDF5 file");
+  SessionInfo info;
+  hsize_t index = 0;
+  H5Aiterate2(file.id, H5_INDEX_NAME, H5_ITER_INC, &index, collect_attribute, &info);
+  H5Ovisit(file.id, H5_INDEX_NAME, H5_ITER_INC, collect_dataset, &info);
+  for (const auto& [name, value] : info.attributes) {
+    if (name == "complete") info.complete = value == "1";
+  }
+  if (H5Lexists(file.id, "time_s", H5P_DEFAULT) <= 0) {
+    throw InputError(path, "not a hapvox session (no /time_s dataset)");
+  }
+  const Handle ds{H5Dopen2(file.id, "time_s", H5P_DEFAULT), H5Dclose};
+  const Handle space{H5Dget_space(ds.id), H5Sclose};
+  info.rows = static_cast<std::size_t>(H5Sget_simple_extent_npoints(space.id));
+  return info;
+}
+
+std::vector<double> read_session_column(const std::string& path, const std::string& dataset) {
+  if (!is_hdf5_file(path)) throw InputError(path, "not an HDF5 file");
+  const Handle file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
+  if (file.id < 0) throw InputError(path, "cannot open HDF5 file");
+  const Handle ds{H5Dopen2(file.id, dataset.c_str(), H5P_DEFAULT), H5Dclose};
+  if (ds.id < 0) throw InputError(path, "no dataset " + dataset);
+  const Handle space{H5Dget_space(ds.id), H5Sclose};
+  std::vector<double> values(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space.id)));
+  if (!values.empty() &&
+      H5Dread(ds.id, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
+    throw InputError(path, "cannot read dataset " + dataset);
+  }
+  return values;
+}
+
+}  // namespace hapvox::haptics

@@ -1,0 +1,101 @@
+#pragma once
+// The session file: an HDF5 file, readable by h5py, holding one row per force tick and the
+// configuration and versions as attributes. Schema in docs/formats.md.
+//
+// Written incrementally to PATH.partial (flushed every `flush_every_ticks`, ~1 s at
+// 1 kHz, so a killed process loses at most that) and renamed to PATH by close(): a file at
+// PATH is always a complete session, and an existing PATH is replaced only on success.
+
+#include <hdf5.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hapvox::haptics {
+
+using Vec3d = Eigen::Vector3d;
+
+/// What one force tick did.
+struct TickRecord {
+  double time_s = 0.0;
+  Vec3d device_position_mm = Vec3d::Zero();  // trace position (device space, resampled)
+  Vec3d tool_position_mm = Vec3d::Zero();    // tool centre in volume space
+  Vec3d force_n = Vec3d::Zero();             // force sent (finite, ramped, clamped)
+  Vec3d displacement_mm = Vec3d::Zero();     // u = x_n - x0 of the elastic model
+  double contact_area_mm2 = 0.0;
+  std::uint8_t contact = 0;
+  std::uint8_t holding = 0;  // trace gap: tool held
+  std::uint8_t clamped = 0;  // force magnitude limited to the device maximum
+  std::int64_t compute_ns = 0;
+};
+
+class SessionWriter {
+ public:
+  /// Creates PATH.partial. Throws hapvox::InputError(path, ...) if it cannot.
+  explicit SessionWriter(std::string path, std::size_t flush_every_ticks = 1000);
+  ~SessionWriter();
+  SessionWriter(const SessionWriter&) = delete;
+  SessionWriter& operator=(const SessionWriter&) = delete;
+
+  /// Root attributes (configuration, versions, summary).
+  void set_attribute(const std::string& name, const std::string& value);
+  void set_attribute(const std::string& name, double value);
+  void set_attribute(const std::string& name, std::int64_t value);
+  void set_attribute(const std::string& name, const Vec3d& value);
+
+  /// Buffers the row; writes and flushes the file every flush_every_ticks rows.
+  void append(const TickRecord& row);
+  /// Writes what is buffered, marks the file complete and renames it to PATH.
+  void close();
+  /// Deletes PATH.partial (used when a run fails before producing anything useful).
+  void abandon();
+
+  const std::string& path() const { return path_; }
+  std::size_t rows_written() const { return rows_written_; }
+
+ private:
+  void flush_rows();
+  void close_datasets();
+  void write_column(hid_t dataset, hid_t mem_type, const void* data, std::size_t columns);
+
+  std::string path_;
+  std::string partial_path_;
+  std::size_t flush_every_;
+  hid_t file_ = -1;
+  struct Datasets {
+    hid_t time_s, device_position_mm, tool_position_mm, force_n, displacement_mm, contact_area_mm2,
+        contact, holding, clamped, compute_ns;
+  } ds_{};
+  std::vector<TickRecord> buffer_;
+  std::size_t rows_written_ = 0;
+  bool closed_ = false;
+};
+
+/// Library versions as "name version" pairs, for session attributes and `hapvox --version`.
+std::vector<std::pair<std::string, std::string>> library_versions();
+
+}  // namespace hapvox::haptics
+
+namespace hapvox::haptics {
+
+/// What `hapvox info` shows of a session file.
+struct SessionInfo {
+  std::size_t rows = 0;
+  bool complete = false;
+  std::vector<std::pair<std::string, std::string>> attributes;  // name, value as text
+  std::vector<std::string> datasets;                            // paths, e.g. "/force_n"
+};
+
+/// Opens an HDF5 session for reading. Throws InputError(path, ...) if it is not one.
+SessionInfo read_session_info(const std::string& path);
+
+/// A numeric dataset of a session (or any HDF5 file), flattened row-major, as doubles.
+/// Throws InputError(path, ...) when missing.
+std::vector<double> read_session_column(const std::string& path, const std::string& dataset);
+
+/// True when the file starts with the HDF5 signature.
+bool is_hdf5_file(const std::string& path);
+
+}  // namespace hapvox::haptics

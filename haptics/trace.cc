@@ -1,0 +1,641 @@
+#include "haptics/trace.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <string_view>
+#include <utility>
+
+#include "engine/check.h"
+#include "engine/errors.h"
+
+namespace hapvox::haptics {
+namespace {
+
+// Caps on generated sample counts, so a typo in a rate cannot exhaust memory.
+constexpr double kMaxTicks = 1e9;
+
+// Shortest text that round-trips, so messages show "0.5" rather than "0.50000000000000000".
+std::string format_double(double v) {
+  char buf[64];
+  const auto result = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, result.ptr);
+}
+
+std::string_view trim(std::string_view s) {
+  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
+  while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+// Strict number parse: the whole (trimmed) field must be a number. A leading '+' is
+// accepted because spreadsheets write it; from_chars does not.
+bool parse_double(std::string_view field, double* out) {
+  std::string_view s = trim(field);
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  if (s.empty()) return false;
+  const auto result = std::from_chars(s.data(), s.data() + s.size(), *out);
+  return result.ec == std::errc() && result.ptr == s.data() + s.size();
+}
+
+// Splits one CSV line on commas, honouring double quotes ("" is a literal quote inside a
+// quoted field). Fields are trimmed, and quotes removed.
+std::vector<std::string> split_csv_line(std::string_view line) {
+  std::vector<std::string> fields;
+  std::string field;
+  bool in_quotes = false;
+  bool was_quoted = false;
+  const auto finish = [&] {
+    fields.push_back(was_quoted ? field : std::string(trim(field)));
+    field.clear();
+    was_quoted = false;
+  };
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (in_quotes) {
+      if (c == '"') {
+        if (i + 1 < line.size() && line[i + 1] == '"') {
+          field += '"';
+          ++i;
+        } else {
+          in_quotes = false;
+        }
+      } else {
+        field += c;
+      }
+    } else if (c == '"' && trim(field).empty()) {
+      field.clear();  // drop spaces before the opening quote
+      in_quotes = true;
+      was_quoted = true;
+    } else if (c == ',') {
+      finish();
+    } else if (!(was_quoted && (c == ' ' || c == '\t'))) {
+      field += c;  // spaces after a closing quote are dropped
+    }
+  }
+  finish();
+  return fields;
+}
+
+bool is_skipped_line(std::string_view line) {
+  const std::string_view t = trim(line);
+  return t.empty() || t.front() == '#';
+}
+
+void check_scales(const std::string& source, const TraceColumns& columns) {
+  if (!(columns.seconds_per_time_unit > 0.0) || !std::isfinite(columns.seconds_per_time_unit)) {
+    throw InputError(source, "time scale must be positive and finite (got " +
+                                 format_double(columns.seconds_per_time_unit) + ")");
+  }
+  if (!(columns.mm_per_position_unit > 0.0) || !std::isfinite(columns.mm_per_position_unit)) {
+    throw InputError(source, "position scale must be positive and finite (got " +
+                                 format_double(columns.mm_per_position_unit) + ")");
+  }
+}
+
+// Raw values as read (file units) with a way to name sample i ("line 7", "index 6").
+struct RawTrace {
+  std::vector<double> time;
+  std::vector<std::array<double, 3>> position;
+  std::function<std::string(std::size_t)> where;
+  std::string kind;  // "column" or "dataset"
+};
+
+// The checks shared by CSV and HDF5: finite values, increasing time, two samples; then
+// unit scaling. Scaled values are checked again since scaling can overflow.
+Trace finish_trace(const std::string& source, const TraceColumns& columns, const RawTrace& raw) {
+  const std::size_t n = raw.time.size();
+  HAPVOX_CHECK_EQ(n, raw.position.size());
+  const auto not_finite = [&](std::size_t i, const std::string& name, bool scaled) {
+    return InputError(source, raw.where(i) + ": " + raw.kind + " '" + name +
+                                  "': NaN or infinite value" +
+                                  (scaled ? " after unit scaling" : ""));
+  };
+  Trace trace;
+  trace.time_s.reserve(n);
+  trace.position_mm.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(raw.time[i])) throw not_finite(i, columns.time, false);
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(raw.position[i][a])) throw not_finite(i, columns.position[a], false);
+    }
+    const double t = raw.time[i] * columns.seconds_per_time_unit;
+    const Vec3d p = Vec3d(raw.position[i][0], raw.position[i][1], raw.position[i][2]) *
+                    columns.mm_per_position_unit;
+    if (!std::isfinite(t)) throw not_finite(i, columns.time, true);
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(p[a])) throw not_finite(i, columns.position[a], true);
+    }
+    if (i > 0 && !(t > trace.time_s.back())) {
+      throw InputError(source, raw.where(i) + ": time " + format_double(raw.time[i]) +
+                                   " does not increase (previous " +
+                                   format_double(raw.time[i - 1]) + ")");
+    }
+    trace.time_s.push_back(t);
+    trace.position_mm.push_back(p);
+  }
+  if (n < 2) {
+    throw InputError(source, "need at least 2 samples, found " + std::to_string(n));
+  }
+  return trace;
+}
+
+// Writes through PATH.partial and renames, so a reader never sees a half-written file.
+void commit_partial(const std::string& partial, const std::string& path) {
+  std::error_code ec;
+  std::filesystem::rename(partial, path, ec);
+  if (ec) {
+    std::filesystem::remove(partial, ec);
+    throw InputError(path, "cannot rename " + partial + " into place");
+  }
+}
+
+void check_trace_shape(const Trace& trace, const std::string& source) {
+  if (trace.time_s.size() != trace.position_mm.size()) {
+    throw InputError(source, "trace has " + std::to_string(trace.time_s.size()) + " times but " +
+                                 std::to_string(trace.position_mm.size()) + " positions");
+  }
+}
+
+// --- HDF5 ---------------------------------------------------------------------------
+
+// Owns one HDF5 identifier; closes it with the matching H5?close.
+class H5Id {
+ public:
+  H5Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  H5Id(const H5Id&) = delete;
+  H5Id& operator=(const H5Id&) = delete;
+  ~H5Id() {
+    if (id_ >= 0) close_(id_);
+  }
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+  // Closes now and reports failure (a file's close is where buffered writes land).
+  bool close() {
+    const herr_t status = id_ >= 0 ? close_(id_) : -1;
+    id_ = -1;
+    return status >= 0;
+  }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+// HDF5 prints its error stack to stderr by default; our messages say it better.
+void silence_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+
+std::vector<double> read_h5_column(const std::string& path, hid_t file, const std::string& name) {
+  const htri_t exists = H5Lexists(file, name.c_str(), H5P_DEFAULT);
+  if (exists <= 0) throw InputError(path, "missing dataset '" + name + "'");
+  H5Id dataset(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!dataset.valid()) throw InputError(path, "'" + name + "' is not a dataset");
+  H5Id type(H5Dget_type(dataset.get()), H5Tclose);
+  const H5T_class_t type_class = type.valid() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
+  if (type_class != H5T_INTEGER && type_class != H5T_FLOAT) {
+    throw InputError(path, "dataset '" + name + "' is not numeric");
+  }
+  H5Id space(H5Dget_space(dataset.get()), H5Sclose);
+  const int rank = space.valid() ? H5Sget_simple_extent_ndims(space.get()) : -1;
+  if (rank != 1) {
+    throw InputError(path, "dataset '" + name + "' is not 1-D (rank " + std::to_string(rank) + ")");
+  }
+  hsize_t length = 0;
+  H5Sget_simple_extent_dims(space.get(), &length, nullptr);
+  std::vector<double> values(static_cast<std::size_t>(length));
+  if (length > 0 &&
+      H5Dread(dataset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
+    throw InputError(path, "cannot read dataset '" + name + "' as float64");
+  }
+  return values;
+}
+
+void write_h5_column(const std::string& path, hid_t file, const char* name,
+                     const std::vector<double>& values) {
+  const hsize_t length = values.size();
+  H5Id space(H5Screate_simple(1, &length, nullptr), H5Sclose);
+  H5Id dataset(
+      H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose);
+  if (!space.valid() || !dataset.valid() ||
+      (length > 0 && H5Dwrite(dataset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT,
+                              values.data()) < 0)) {
+    throw InputError(path, std::string("cannot write dataset '") + name + "'");
+  }
+}
+
+bool has_h5_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".h5" || ext == ".hdf5";
+}
+
+// --- make_trace -----------------------------------------------------------------------
+
+// One constant-speed piece of a synthetic path; at(u) for u in [0, 1].
+struct Piece {
+  double duration_s;
+  std::function<Vec3d(double)> at;
+};
+
+Piece line_piece(const Vec3d& a, const Vec3d& b, double speed) {
+  return {(b - a).norm() / speed, [a, b](double u) { return Vec3d(a + u * (b - a)); }};
+}
+
+Piece hold_piece(const Vec3d& p, double duration_s) {
+  return {duration_s, [p](double) { return p; }};
+}
+
+void require(bool ok, const std::string& problem) {
+  if (!ok) throw InputError("trace make", problem);
+}
+
+bool finite(const Vec3d& v) { return v.allFinite(); }
+
+}  // namespace
+
+// --- CSV --------------------------------------------------------------------------------
+
+Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
+  check_scales(path, columns);
+  std::ifstream in(path, std::ios::binary);
+  if (!in || std::filesystem::is_directory(path)) throw InputError(path, "cannot open file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  if (text.starts_with("\xEF\xBB\xBF")) text.erase(0, 3);
+
+  // Walk lines by hand so each keeps its 1-based number for messages.
+  std::size_t pos = 0;
+  int line_number = 0;
+  std::string_view line;
+  const auto next_line = [&]() {
+    if (pos >= text.size()) return false;
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    line = std::string_view(text).substr(pos, end - pos);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    pos = end + 1;
+    ++line_number;
+    return true;
+  };
+
+  // Header: the first line that is neither blank nor a comment.
+  bool have_header = false;
+  while (next_line()) {
+    if (!is_skipped_line(line)) {
+      have_header = true;
+      break;
+    }
+  }
+  if (!have_header) throw InputError(path, "empty file: no header row");
+  const std::vector<std::string> names = split_csv_line(line);
+
+  const auto find_column = [&](const std::string& name) {
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) {
+      std::string list;
+      for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+      throw InputError(path, "missing column '" + name + "' (columns are: " + list + ")");
+    }
+    return static_cast<std::size_t>(it - names.begin());
+  };
+  const std::size_t time_index = find_column(columns.time);
+  std::array<std::size_t, 3> position_index;
+  for (int a = 0; a < 3; ++a) position_index[a] = find_column(columns.position[a]);
+
+  RawTrace raw;
+  raw.kind = "column";
+  std::vector<int> line_numbers;
+  while (next_line()) {
+    if (is_skipped_line(line)) continue;
+    const std::vector<std::string> fields = split_csv_line(line);
+    const std::string where = "line " + std::to_string(line_number);
+    if (fields.size() != names.size()) {
+      throw InputError(path, where + ": expected " + std::to_string(names.size()) +
+                                 " fields, found " + std::to_string(fields.size()));
+    }
+    const auto number = [&](std::size_t index) {
+      double v = 0.0;
+      if (!parse_double(fields[index], &v)) {
+        throw InputError(
+            path, where + ": column '" + names[index] + "': not a number: '" + fields[index] + "'");
+      }
+      return v;
+    };
+    raw.time.push_back(number(time_index));
+    raw.position.push_back(
+        {number(position_index[0]), number(position_index[1]), number(position_index[2])});
+    line_numbers.push_back(line_number);
+  }
+  raw.where = [&](std::size_t i) { return "line " + std::to_string(line_numbers[i]); };
+  return finish_trace(path, columns, raw);
+}
+
+void write_csv_trace(const Trace& trace, const std::string& path) {
+  check_trace_shape(trace, path);
+  const std::string partial = path + ".partial";
+  std::FILE* out = std::fopen(partial.c_str(), "wb");
+  if (out == nullptr) {
+    throw InputError(path, "cannot write " + partial + ": " + std::strerror(errno));
+  }
+  bool ok = std::fputs("t,x,y,z\n", out) >= 0;
+  for (std::size_t i = 0; ok && i < trace.time_s.size(); ++i) {
+    const Vec3d& p = trace.position_mm[i];
+    // %.17g round-trips every double exactly.
+    ok = std::fprintf(out, "%.17g,%.17g,%.17g,%.17g\n", trace.time_s[i], p.x(), p.y(), p.z()) > 0;
+  }
+  ok = (std::fclose(out) == 0) && ok;
+  if (!ok) {
+    std::error_code ec;
+    std::filesystem::remove(partial, ec);
+    throw InputError(path, "cannot write " + partial);
+  }
+  commit_partial(partial, path);
+}
+
+// --- HDF5 -------------------------------------------------------------------------------
+
+Trace read_h5_trace(const std::string& path, const TraceColumns& columns) {
+  check_scales(path, columns);
+  silence_hdf5();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw InputError(path, "cannot open file");
+  if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path, "not an HDF5 file");
+  H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!file.valid()) throw InputError(path, "cannot open HDF5 file");
+
+  RawTrace raw;
+  raw.kind = "dataset";
+  raw.time = read_h5_column(path, file.get(), columns.time);
+  std::array<std::vector<double>, 3> position;
+  for (int a = 0; a < 3; ++a) {
+    position[a] = read_h5_column(path, file.get(), columns.position[a]);
+    if (position[a].size() != raw.time.size()) {
+      throw InputError(path, "dataset '" + columns.position[a] + "' has " +
+                                 std::to_string(position[a].size()) + " values but dataset '" +
+                                 columns.time + "' has " + std::to_string(raw.time.size()));
+    }
+  }
+  raw.position.resize(raw.time.size());
+  for (std::size_t i = 0; i < raw.time.size(); ++i) {
+    raw.position[i] = {position[0][i], position[1][i], position[2][i]};
+  }
+  raw.where = [](std::size_t i) { return "index " + std::to_string(i); };
+  return finish_trace(path, columns, raw);
+}
+
+void write_h5_trace(const Trace& trace, const std::string& path) {
+  check_trace_shape(trace, path);
+  silence_hdf5();
+  const std::string partial = path + ".partial";
+  try {
+    H5Id file(H5Fcreate(partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+    if (!file.valid()) throw InputError(path, "cannot create " + partial);
+    std::array<std::vector<double>, 3> position;
+    for (const Vec3d& p : trace.position_mm) {
+      for (int a = 0; a < 3; ++a) position[a].push_back(p[a]);
+    }
+    write_h5_column(path, file.get(), "t", trace.time_s);
+    write_h5_column(path, file.get(), "x", position[0]);
+    write_h5_column(path, file.get(), "y", position[1]);
+    write_h5_column(path, file.get(), "z", position[2]);
+    if (!file.close()) throw InputError(path, "cannot finish writing " + partial);
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove(partial, ec);
+    throw;
+  }
+  commit_partial(partial, path);
+}
+
+Trace read_trace(const std::string& path, const TraceColumns& columns) {
+  return has_h5_extension(path) ? read_h5_trace(path, columns) : read_csv_trace(path, columns);
+}
+
+// --- Transforms ---------------------------------------------------------------------------
+
+Eigen::Matrix3d rotation_from_euler_deg(const Vec3d& xyz_deg) {
+  const Vec3d r = xyz_deg * (std::numbers::pi / 180.0);
+  // About x first, so it is the rightmost factor.
+  return (Eigen::AngleAxisd(r.z(), Vec3d::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3d::UnitY()) *
+          Eigen::AngleAxisd(r.x(), Vec3d::UnitX()))
+      .toRotationMatrix();
+}
+
+DeviceTransform fit_trace_into_box(const Trace& trace, const Vec3d& box_min_mm,
+                                   const Vec3d& box_max_mm, double margin_fraction) {
+  const std::string source = "trace fit";
+  if (trace.position_mm.empty()) throw InputError(source, "trace has no samples");
+  if (!finite(box_min_mm) || !finite(box_max_mm) ||
+      !(box_max_mm.array() > box_min_mm.array()).all()) {
+    throw InputError(source, "box must have positive size on every axis");
+  }
+  if (!(margin_fraction >= 0.0 && margin_fraction < 0.5)) {
+    throw InputError(
+        source, "margin fraction must be in [0, 0.5) (got " + format_double(margin_fraction) + ")");
+  }
+  Vec3d lo = trace.position_mm.front();
+  Vec3d hi = lo;
+  for (const Vec3d& p : trace.position_mm) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Vec3d extent = hi - lo;
+  const Vec3d room = (box_max_mm - box_min_mm) * (1.0 - 2.0 * margin_fraction);
+
+  // Only axes the trace moves along limit the scale; a still trace keeps scale 1.
+  double scale = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    if (extent[a] > 0.0) scale = std::min(scale, room[a] / extent[a]);
+  }
+  if (!std::isfinite(scale)) scale = 1.0;
+
+  DeviceTransform transform;
+  transform.scale = scale;
+  transform.offset_mm = 0.5 * (box_min_mm + box_max_mm) - scale * 0.5 * (lo + hi);
+  return transform;
+}
+
+// --- Resampling -------------------------------------------------------------------------
+
+ResampledTrace resample(const Trace& trace, const ResampleOptions& options) {
+  const std::string source = "resample";
+  if (!(options.rate_hz > 0.0) || !std::isfinite(options.rate_hz)) {
+    throw InputError(source, "rate must be positive (got " + format_double(options.rate_hz) + ")");
+  }
+  if (!(options.max_gap_s > 0.0)) {
+    throw InputError(source,
+                     "max gap must be positive (got " + format_double(options.max_gap_s) + ")");
+  }
+  check_trace_shape(trace, source);
+  const std::vector<double>& t = trace.time_s;
+  const std::vector<Vec3d>& p = trace.position_mm;
+  const std::size_t n = t.size();
+  if (n < 2) throw InputError(source, "need at least 2 samples, found " + std::to_string(n));
+  for (std::size_t i = 1; i < n; ++i) {
+    if (!(t[i] > t[i - 1])) {
+      throw InputError(source, "times must strictly increase (index " + std::to_string(i) + ")");
+    }
+  }
+
+  ResampledTrace out;
+  out.rate_hz = options.rate_hz;
+  const double t0 = t.front();
+  // The small slack keeps a tick that lands on the last sample up to rounding (e.g. a 1 s
+  // trace at 1 kHz has 1001 ticks even if (t_end - t0) * rate is 999.9999999999).
+  const double last_k = std::floor((t.back() - t0) * options.rate_hz + 1e-9);
+  if (last_k + 1 > kMaxTicks) {
+    throw InputError(source,
+                     "resampling would produce " + format_double(last_k + 1) + " ticks (too many)");
+  }
+  const std::size_t ticks = static_cast<std::size_t>(last_k) + 1;
+  out.time_s.reserve(ticks);
+  out.position_mm.reserve(ticks);
+  out.holding.reserve(ticks);
+
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    const double dt = t[i + 1] - t[i];
+    if (dt > options.max_gap_s) {
+      ++out.gap_count;
+      out.held_time_s += dt;
+    }
+  }
+
+  std::size_t j = 0;  // current step: t[j] <= tick < t[j + 1]
+  for (std::size_t k = 0; k < ticks; ++k) {
+    // k / rate, not a running sum, so long traces do not drift.
+    const double tick = t0 + static_cast<double>(k) / options.rate_hz;
+    while (j + 2 < n && t[j + 1] <= tick) ++j;
+    const double dt = t[j + 1] - t[j];
+    Vec3d position;
+    std::uint8_t holding = 0;
+    if (tick >= t[j + 1]) {
+      position = p[j + 1];  // only at (or within rounding past) the last sample
+    } else if (dt > options.max_gap_s) {
+      position = p[j];
+      holding = tick > t[j] ? 1 : 0;
+    } else {
+      const double u = std::clamp((tick - t[j]) / dt, 0.0, 1.0);
+      position = p[j] + u * (p[j + 1] - p[j]);
+    }
+    out.time_s.push_back(tick);
+    out.position_mm.push_back(position);
+    out.holding.push_back(holding);
+  }
+  return out;
+}
+
+// --- Synthetic traces -----------------------------------------------------------------------
+
+TraceShape parse_trace_shape(const std::string& name, const std::string& source) {
+  if (name == "press") return TraceShape::kPress;
+  if (name == "press-release") return TraceShape::kPressRelease;
+  if (name == "stroke") return TraceShape::kStroke;
+  if (name == "circle") return TraceShape::kCircle;
+  throw InputError(source, "unknown trace shape '" + name +
+                               "' (expected press, press-release, stroke or circle)");
+}
+
+Trace make_trace(const TraceMakeOptions& o) {
+  require(std::isfinite(o.speed_mm_s) && o.speed_mm_s > 0.0,
+          "speed must be positive (got " + format_double(o.speed_mm_s) + ")");
+  require(std::isfinite(o.rate_hz) && o.rate_hz > 0.0,
+          "rate must be positive (got " + format_double(o.rate_hz) + ")");
+  require(std::isfinite(o.travel_mm) && o.travel_mm > 0.0,
+          "travel must be positive (got " + format_double(o.travel_mm) + ")");
+  require(finite(o.start_mm), "start must be finite");
+  require(finite(o.direction) && o.direction.norm() > 0.0, "direction must be non-zero");
+  require(std::isfinite(o.hold_s) && o.hold_s >= 0.0,
+          "hold time must not be negative (got " + format_double(o.hold_s) + ")");
+
+  const Vec3d dir = o.direction.normalized();
+  const Vec3d bottom = o.start_mm + o.travel_mm * dir;
+  // The lateral axis, made perpendicular to the direction (stroke and circle only).
+  const auto lateral_axis = [&] {
+    require(finite(o.lateral), "lateral must be finite");
+    const Vec3d l = o.lateral - o.lateral.dot(dir) * dir;
+    require(l.norm() > 1e-9 * std::max(1.0, o.lateral.norm()),
+            "lateral must not be zero or parallel to direction");
+    return Vec3d(l.normalized());
+  };
+
+  std::vector<Piece> pieces;
+  pieces.push_back(line_piece(o.start_mm, bottom, o.speed_mm_s));
+  switch (o.shape) {
+    case TraceShape::kPress:
+      pieces.push_back(hold_piece(bottom, o.hold_s));
+      break;
+    case TraceShape::kPressRelease:
+      pieces.push_back(hold_piece(bottom, o.hold_s));
+      pieces.push_back(line_piece(bottom, o.start_mm, o.speed_mm_s));
+      break;
+    case TraceShape::kStroke: {
+      require(std::isfinite(o.stroke_length_mm) && o.stroke_length_mm > 0.0,
+              "stroke length must be positive (got " + format_double(o.stroke_length_mm) + ")");
+      const Vec3d end = bottom + o.stroke_length_mm * lateral_axis();
+      pieces.push_back(line_piece(bottom, end, o.speed_mm_s));
+      pieces.push_back(line_piece(end, end - o.travel_mm * dir, o.speed_mm_s));
+      break;
+    }
+    case TraceShape::kCircle: {
+      require(std::isfinite(o.radius_mm) && o.radius_mm > 0.0,
+              "radius must be positive (got " + format_double(o.radius_mm) + ")");
+      // The bottom point lies on the circle; the centre is radius_mm along lateral from it.
+      const Vec3d u = lateral_axis();
+      const Vec3d v = dir.cross(u);
+      const Vec3d centre = bottom + o.radius_mm * u;
+      const double r = o.radius_mm;
+      pieces.push_back({2.0 * std::numbers::pi * r / o.speed_mm_s, [centre, u, v, r](double s) {
+                          const double angle = 2.0 * std::numbers::pi * s;
+                          return Vec3d(centre - r * std::cos(angle) * u + r * std::sin(angle) * v);
+                        }});
+      pieces.push_back(line_piece(bottom, o.start_mm, o.speed_mm_s));
+      break;
+    }
+  }
+  std::erase_if(pieces, [](const Piece& piece) { return !(piece.duration_s > 0.0); });
+
+  std::vector<double> starts;  // start time of each piece
+  double total_s = 0.0;
+  for (const Piece& piece : pieces) {
+    starts.push_back(total_s);
+    total_s += piece.duration_s;
+  }
+  // Samples sit exactly on k / rate; the last one is the first at or after the end, and
+  // is clamped to the end point so every shape finishes where it should.
+  const double last_k = std::ceil(total_s * o.rate_hz - 1e-9);
+  require(last_k + 1 <= kMaxTicks,
+          "trace would have " + format_double(last_k + 1) + " samples (too many)");
+  const std::size_t count = static_cast<std::size_t>(last_k) + 1;
+
+  Trace trace;
+  trace.time_s.reserve(count);
+  trace.position_mm.reserve(count);
+  std::size_t current = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const double time = static_cast<double>(k) / o.rate_hz;
+    while (current + 1 < pieces.size() && starts[current + 1] <= time) ++current;
+    const Piece& piece = pieces[current];
+    const double s = std::clamp((time - starts[current]) / piece.duration_s, 0.0, 1.0);
+    trace.time_s.push_back(time);
+    trace.position_mm.push_back(piece.at(s));
+  }
+  return trace;
+}
+
+}  // namespace hapvox::haptics

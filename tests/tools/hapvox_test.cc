@@ -1,0 +1,273 @@
+// End-to-end tests of the hapvox command line: exit codes, one-line errors naming the file
+// and the problem, and outputs that are complete or absent, never half-written.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "test_data.h"
+
+namespace hapvox {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::hapvox_binary;
+using testing::scratch_dir;
+using testing::source_path;
+
+struct Result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+Result run(const std::string& args) {
+  // ctest runs tests in parallel: capture files are unique to the test.
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::string dir = fs::temp_directory_path().string() + "/hapvox_cli_" +
+                          info->test_suite_name() + "_" + info->name();
+  const std::string out = dir + "_out.txt";
+  const std::string err = dir + "_err.txt";
+  const std::string command = hapvox_binary() + " " + args + " >" + out + " 2>" + err;
+  const int status = std::system(command.c_str());
+  Result r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+void write_file(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// A bad-input run: exit 2, exactly one line on stderr, equal to `expected`.
+void expect_input_error(const std::string& args, const std::string& expected) {
+  const Result r = run(args);
+  EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+  EXPECT_EQ(r.err, "hapvox: error: " + expected + "\n") << args;
+}
+
+std::string engine_nrrd() { return source_path("data/engine_256x256x128_uint8.nrrd"); }
+std::string press_trace() { return source_path("traces/engine_press.csv"); }
+
+TEST(HapvoxCli, HelpOnEveryCommand) {
+  for (const char* command :
+       {"", "replay", "info", "bench", "bench force", "trace", "trace make"}) {
+    const Result r = run(std::string(command) + " --help");
+    EXPECT_EQ(r.exit_code, 0) << command;
+    EXPECT_NE(r.out.find("Usage:"), std::string::npos) << command;
+  }
+}
+
+TEST(HapvoxCli, MainJobReplaysTheEngineAndWritesASession) {
+  const std::string session = scratch_dir() + "/engine.h5";
+  const Result r = run("replay " + press_trace() + " --volume " + engine_nrrd() + " -o " + session);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("peak force"), std::string::npos);
+  EXPECT_NE(r.out.find("p99"), std::string::npos);
+  ASSERT_TRUE(fs::exists(session));
+  EXPECT_FALSE(fs::exists(session + ".partial"));
+  const Result info = run("info " + session);
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("complete"), std::string::npos);
+  EXPECT_NE(info.out.find("youngs_modulus_pa"), std::string::npos);
+  EXPECT_NE(info.out.find("version_openvdb"), std::string::npos);
+}
+
+TEST(HapvoxCli, SessionIsReadableByH5py) {
+  if (std::system("/usr/bin/python3 -c 'import h5py' 2>/dev/null") != 0) {
+    GTEST_SKIP() << "python3-h5py is not installed (scripts/setup.sh installs it)";
+  }
+  const std::string dir = scratch_dir();
+  const std::string session = dir + "/engine.h5";
+  ASSERT_EQ(
+      run("replay " + press_trace() + " --volume " + engine_nrrd() + " -o " + session).exit_code,
+      0);
+  const std::string script =
+      "import h5py, numpy as np\n"
+      "f = h5py.File('" +
+      session +
+      "', 'r')\n"
+      "n = f['time_s'].shape[0]\n"
+      "assert f['force_n'].shape == (n, 3) and f['tool_position_mm'].shape == (n, 3)\n"
+      "assert f['timing/compute_ns'].shape == (n,)\n"
+      "assert int(f.attrs['complete']) == 1 and f.attrs['rows'] == n\n"
+      "assert np.all(np.isfinite(f['force_n'][:]))\n"
+      "assert f['contact'][:].sum() > 100\n"
+      "assert np.allclose(np.diff(f['time_s'][:]), 1e-3)\n"
+      "print('ok', n)\n";
+  const std::string script_path = dir + "/check.py";
+  write_file(script_path, script);
+  EXPECT_EQ(std::system(("/usr/bin/python3 " + script_path + " >/dev/null").c_str()), 0);
+}
+
+TEST(HapvoxCli, InfoDescribesVolumesAndTraces) {
+  Result r = run("info " + engine_nrrd());
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("256 x 256 x 128 voxels"), std::string::npos) << r.out;
+  r = run("info " + source_path("data/headsq_64x64x93_uint16.nrrd"));
+  EXPECT_NE(r.out.find("3.2 x 3.2 x 1.5 mm"), std::string::npos) << r.out;
+  r = run("info " + press_trace());
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("probe trace"), std::string::npos) << r.out;
+  r = run("info four-spheres");
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("128 x 128 x 128"), std::string::npos) << r.out;
+}
+
+TEST(HapvoxCli, TraceMakeWritesEachShapeThatReplays) {
+  const std::string dir = scratch_dir();
+  for (const char* shape : {"press", "press-release", "stroke", "circle"}) {
+    const std::string trace = dir + "/" + shape + ".csv";
+    ASSERT_EQ(run(std::string("trace make ") + shape + " -o " + trace +
+                  " --start-mm 32,32,45 --travel-mm 12 --speed-mm-s 40 --hold-s 0.1")
+                  .exit_code,
+              0)
+        << shape;
+    const Result r = run("replay " + trace + " --volume block:dims=64 -o " + dir + "/s.h5");
+    EXPECT_EQ(r.exit_code, 0) << shape << r.err;
+  }
+  const std::string h5 = dir + "/press.h5";
+  ASSERT_EQ(run("trace make press -o " + h5 + " --start-mm 32,32,45").exit_code, 0);
+  EXPECT_EQ(run("replay " + h5 + " --volume block:dims=64 -o " + dir + "/s.h5").exit_code, 0);
+}
+
+TEST(HapvoxCli, BadVolumesAreRejected) {
+  const std::string dir = scratch_dir();
+  const std::string out = dir + "/s.h5";
+  const std::string head = "replay " + press_trace() + " -o " + out + " --volume ";
+  expect_input_error(head + dir + "/missing.nrrd", dir + "/missing.nrrd: cannot open file");
+  // Truncated inside the gzip payload.
+  const std::string full = slurp(engine_nrrd());
+  write_file(dir + "/cut.nrrd", full.substr(0, full.size() / 2));
+  const Result cut = run(head + dir + "/cut.nrrd");
+  EXPECT_EQ(cut.exit_code, 2);
+  EXPECT_EQ(cut.err.rfind("hapvox: error: " + dir + "/cut.nrrd: ", 0), 0u) << cut.err;
+  // Corrupt: not a NRRD at all.
+  write_file(dir + "/junk.nrrd", "this is not a volume\n");
+  const Result junk = run(head + dir + "/junk.nrrd");
+  EXPECT_EQ(junk.exit_code, 2);
+  EXPECT_EQ(junk.err.rfind("hapvox: error: " + dir + "/junk.nrrd: ", 0), 0u) << junk.err;
+  // Wrong sizes: header promises more voxels than the raw payload holds.
+  write_file(dir + "/small.nrrd",
+             "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n\n" +
+                 std::string(10, '\1'));
+  const Result small = run(head + dir + "/small.nrrd");
+  EXPECT_EQ(small.exit_code, 2);
+  EXPECT_NE(small.err.find(dir + "/small.nrrd: "), std::string::npos) << small.err;
+  EXPECT_NE(small.err.find("truncated"), std::string::npos) << small.err;
+  // NaN samples.
+  std::string nan_payload(4 * 8, '\0');
+  const float nan = NAN;
+  std::memcpy(nan_payload.data() + 4, &nan, 4);
+  write_file(dir + "/nan.nrrd",
+             "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nendian: "
+             "little\n\n" +
+                 nan_payload);
+  const Result nan_run = run(head + dir + "/nan.nrrd");
+  EXPECT_EQ(nan_run.exit_code, 2);
+  EXPECT_NE(nan_run.err.find("NaN"), std::string::npos) << nan_run.err;
+  expect_input_error(head + "cube",
+                     "cube: unknown volume format (expected .nrrd, .nhdr or .vdb, "
+                     "or a generator: block, sphere, four-spheres)");
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out + ".partial"));
+}
+
+TEST(HapvoxCli, BadTracesAreRejected) {
+  const std::string dir = scratch_dir();
+  const std::string out = dir + "/s.h5";
+  auto replay = [&](const std::string& trace) {
+    return "replay " + trace + " --volume block:dims=32 -o " + out;
+  };
+  expect_input_error(replay(dir + "/none.csv"), dir + "/none.csv: cannot open file");
+  write_file(dir + "/cols.csv", "t,x,y\n0,1,2\n0.1,1,2\n");
+  expect_input_error(replay(dir + "/cols.csv"),
+                     dir + "/cols.csv: missing column 'z' (columns are: t, x, y)");
+  write_file(dir + "/nan.csv", "t,x,y,z\n0,1,2,3\n0.1,1,nan,3\n");
+  expect_input_error(replay(dir + "/nan.csv"),
+                     dir + "/nan.csv: line 3: column 'y': NaN or infinite value");
+  write_file(dir + "/inf.csv", "t,x,y,z\n0,1,2,3\n0.1,1,2,inf\n");
+  expect_input_error(replay(dir + "/inf.csv"),
+                     dir + "/inf.csv: line 3: column 'z': NaN or infinite value");
+  write_file(dir + "/time.csv", "t,x,y,z\n0,1,2,3\n0.2,1,2,3\n0.1,1,2,3\n");
+  expect_input_error(replay(dir + "/time.csv"),
+                     dir + "/time.csv: line 4: time 0.1 does not increase (previous 0.2)");
+  write_file(dir + "/text.csv", "t,x,y,z\n0,1,2,3\n0.1,1,abc,3\n");
+  expect_input_error(replay(dir + "/text.csv"),
+                     dir + "/text.csv: line 3: column 'y': not a number: 'abc'");
+  write_file(dir + "/empty.csv", "");
+  expect_input_error(replay(dir + "/empty.csv"), dir + "/empty.csv: empty file: no header row");
+  write_file(dir + "/junk.h5", "not hdf5 at all");
+  expect_input_error(replay(dir + "/junk.h5"), dir + "/junk.h5: not an HDF5 file");
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out + ".partial"));
+}
+
+TEST(HapvoxCli, BadMaterialsAndFlagsAreRejected) {
+  const std::string dir = scratch_dir();
+  const std::string out = dir + "/s.h5";
+  const std::string head = "replay " + press_trace() + " --volume block:dims=32 -o " + out + " ";
+  expect_input_error(head + "-E 0",
+                     "--youngs-modulus-pa: Young's modulus must be positive and finite, got 0 Pa");
+  expect_input_error(head + "-E -3",
+                     "--youngs-modulus-pa: Young's modulus must be positive and finite, got -3 Pa");
+  expect_input_error(head + "--poisson 0.5",
+                     "--poisson: Poisson's ratio must lie in (-1, 0.5), got 0.5");
+  expect_input_error(head + "--poisson -1",
+                     "--poisson: Poisson's ratio must lie in (-1, 0.5), got -1");
+  expect_input_error(head + "--tool-diameter-mm 0", "--tool-diameter-mm: must be positive");
+  expect_input_error(head + "--pos-cols x,y",
+                     "--pos-cols: expected three column names X,Y,Z, got 'x,y'");
+  expect_input_error(head + "--time-unit h",
+                     "--time-unit: unknown unit 'h' (expected one of: s, ms, us)");
+  expect_input_error(head + "--offset-mm 1,2", "--offset-mm: expected X,Y,Z, got '1,2'");
+  expect_input_error(head + "--window 5,1", "--window: HI must exceed LO");
+  expect_input_error(head + "--max-force-n 0", "--max-force-n: must be positive");
+  const Result unknown = run(head + "--bogus");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_EQ(std::count(unknown.err.begin(), unknown.err.end(), '\n'), 1) << unknown.err;
+  EXPECT_NE(unknown.err.find("--bogus"), std::string::npos);
+  const Result not_number = run(head + "--tool-diameter-mm abc");
+  EXPECT_EQ(not_number.exit_code, 2);
+  EXPECT_NE(not_number.err.find("--tool-diameter-mm"), std::string::npos) << not_number.err;
+  expect_input_error("replay " + press_trace() + " --volume block -o " + dir + "/no/such/s.h5",
+                     dir + "/no/such/s.h5: output directory " + dir + "/no/such does not exist");
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(HapvoxCli, FailedRunLeavesAnExistingSessionUntouched) {
+  const std::string dir = scratch_dir();
+  const std::string out = dir + "/s.h5";
+  write_file(out, "previous results");
+  write_file(dir + "/bad.csv", "t,x,y,z\n0,1,2,3\n");
+  const Result r = run("replay " + dir + "/bad.csv --volume block:dims=32 -o " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(slurp(out), "previous results");
+}
+
+TEST(HapvoxCli, BenchForcePrintsTheTable) {
+  const Result r = run("bench force --sizes 64 --diameters 16 --min-time-s 0.01 --repetitions 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("ours Hz"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("naive Hz"), std::string::npos);
+  EXPECT_NE(r.out.find("seed Hz"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hapvox

@@ -1,0 +1,179 @@
+#include "tools/cli.h"
+
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "engine/errors.h"
+
+namespace hapvox::cli {
+namespace {
+
+double parse_number(const std::string& text, const std::string& flag) {
+  double value = 0.0;
+  const char* begin = text.data();
+  const char* end = text.data() + text.size();
+  while (begin < end && *begin == ' ') ++begin;
+  const auto [ptr, ec] = std::from_chars(begin, end, value);
+  if (ec != std::errc() || ptr != end || !std::isfinite(value)) {
+    throw InputError(flag, "not a finite number: '" + text + "'");
+  }
+  return value;
+}
+
+std::vector<std::string> split(const std::string& text, char sep) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  std::string part;
+  while (std::getline(in, part, sep)) parts.push_back(part);
+  if (!text.empty() && text.back() == sep) parts.emplace_back();
+  return parts;
+}
+
+double unit_scale(const std::string& unit, const std::string& flag,
+                  const std::vector<std::pair<std::string, double>>& table) {
+  std::string known;
+  for (const auto& [name, scale] : table) {
+    if (name == unit) return scale;
+    known += (known.empty() ? "" : ", ") + name;
+  }
+  throw InputError(flag, "unknown unit '" + unit + "' (expected one of: " + known + ")");
+}
+
+}  // namespace
+
+Eigen::Vector3d parse_vec3(const std::string& text, const std::string& flag) {
+  const auto parts = split(text, ',');
+  if (parts.size() != 3) throw InputError(flag, "expected X,Y,Z, got '" + text + "'");
+  return {parse_number(parts[0], flag), parse_number(parts[1], flag), parse_number(parts[2], flag)};
+}
+
+void MappingFlags::add_to(CLI::App& app) {
+  auto* t = app.add_option("--threshold", threshold,
+                           "Intensity at or above which a voxel is material (density 1)");
+  auto* w = app.add_option("--window", window,
+                           "LO,HI: intensities map linearly to density 0..1 (default: a "
+                           "threshold at Otsu's value)");
+  t->excludes(w);
+}
+
+engine::IntensityMapping MappingFlags::resolve() const {
+  engine::IntensityMapping mapping;
+  if (!threshold.empty()) {
+    mapping.kind = engine::IntensityMapping::Kind::kThreshold;
+    mapping.low = parse_number(threshold, "--threshold");
+  } else if (!window.empty()) {
+    const auto parts = split(window, ',');
+    if (parts.size() != 2) throw InputError("--window", "expected LO,HI, got '" + window + "'");
+    mapping.kind = engine::IntensityMapping::Kind::kWindow;
+    mapping.low = parse_number(parts[0], "--window");
+    mapping.high = parse_number(parts[1], "--window");
+    if (mapping.high <= mapping.low) throw InputError("--window", "HI must exceed LO");
+  }
+  return mapping;
+}
+
+void TraceFlags::add_to(CLI::App& app) {
+  app.add_option("--time-col", time_col, "Name of the trace's time column")->capture_default_str();
+  app.add_option("--pos-cols", pos_cols, "Names of the X,Y,Z position columns")
+      ->capture_default_str();
+  app.add_option("--time-unit", time_unit, "Unit of the time column: s, ms, us")
+      ->capture_default_str();
+  app.add_option("--pos-unit", pos_unit, "Unit of the position columns: mm, cm, m, um")
+      ->capture_default_str();
+  app.add_option("--rate-hz", rate_hz, "Force loop rate the trace is resampled to")
+      ->capture_default_str();
+  app.add_option("--max-gap-s", max_gap_s,
+                 "A step between trace samples longer than this is a gap: the tool holds")
+      ->capture_default_str();
+}
+
+haptics::TraceColumns TraceFlags::columns() const {
+  haptics::TraceColumns columns;
+  columns.time = time_col;
+  const auto names = split(pos_cols, ',');
+  if (names.size() != 3 || names[0].empty() || names[1].empty() || names[2].empty()) {
+    throw InputError("--pos-cols", "expected three column names X,Y,Z, got '" + pos_cols + "'");
+  }
+  columns.position = {names[0], names[1], names[2]};
+  columns.seconds_per_time_unit =
+      unit_scale(time_unit, "--time-unit", {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}});
+  columns.mm_per_position_unit =
+      unit_scale(pos_unit, "--pos-unit", {{"mm", 1.0}, {"cm", 10.0}, {"m", 1000.0}, {"um", 1e-3}});
+  if (!(rate_hz > 0.0) || rate_hz > 100e3) {
+    throw InputError("--rate-hz", "must be in (0, 100000]");
+  }
+  if (!(max_gap_s > 0.0)) throw InputError("--max-gap-s", "must be positive");
+  return columns;
+}
+
+void TransformFlags::add_to(CLI::App& app) {
+  app.add_option("--scale", scale, "Device-to-volume scale (volume mm per device mm)")
+      ->capture_default_str();
+  app.add_option("--rotate-deg", rotate_deg, "Device-to-volume rotation, Euler X,Y,Z degrees");
+  app.add_option("--offset-mm", offset_mm, "Device-to-volume offset X,Y,Z in mm");
+  app.add_flag("--fit", fit, "Fit the trace's bounding box into the volume (uniform scale)");
+}
+
+haptics::DeviceTransform TransformFlags::resolve(const haptics::Trace& trace,
+                                                 const engine::DensityField& field) const {
+  if (fit) {
+    if (scale != 1.0 || !rotate_deg.empty() || !offset_mm.empty()) {
+      throw InputError("--fit", "cannot be combined with --scale, --rotate-deg or --offset-mm");
+    }
+    return haptics::fit_trace_into_box(trace, field.world_min_mm(), field.world_max_mm());
+  }
+  if (!std::isfinite(scale) || scale <= 0.0) throw InputError("--scale", "must be positive");
+  haptics::DeviceTransform transform;
+  transform.scale = scale;
+  if (!rotate_deg.empty()) {
+    transform.rotation = haptics::rotation_from_euler_deg(parse_vec3(rotate_deg, "--rotate-deg"));
+  }
+  if (!offset_mm.empty()) transform.offset_mm = parse_vec3(offset_mm, "--offset-mm");
+  return transform;
+}
+
+void ForceFlags::add_to(CLI::App& app) {
+  app.add_option("--youngs-modulus-pa,-E", options.material.youngs_modulus_pa,
+                 "Young's modulus E of the material, Pa")
+      ->capture_default_str();
+  app.add_option("--poisson", options.material.poisson_ratio, "Poisson's ratio, in (-1, 0.5)")
+      ->capture_default_str();
+  app.add_option("--tool-diameter-mm", options.tool.diameter_mm, "Spherical tool diameter, mm")
+      ->capture_default_str();
+  app.add_option("--reference-length-mm", options.reference_length_mm,
+                 "Reference length L of the strain |u|/L (0: the tool radius)")
+      ->capture_default_str();
+  app.add_option("--slip-ratio", options.slip_ratio,
+                 "Contact origin slides once tangential/normal displacement exceeds this "
+                 "(inf: the paper's fixed x0)")
+      ->capture_default_str();
+}
+
+namespace {
+std::string& command_line_storage() {
+  static std::string text;
+  return text;
+}
+}  // namespace
+
+void set_command_line(int argc, char** argv) {
+  std::string& text = command_line_storage();
+  text.clear();
+  for (int i = 0; i < argc; ++i) text += (i ? " " : "") + std::string(argv[i]);
+}
+
+const std::string& command_line() { return command_line_storage(); }
+
+void check_output_path(const std::string& output, const std::string& flag) {
+  namespace fs = std::filesystem;
+  if (output.empty()) throw InputError(flag, "an output path is required");
+  const fs::path parent = fs::path(output).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent)) {
+    throw InputError(output, "output directory " + parent.string() + " does not exist");
+  }
+  if (fs::is_directory(output)) throw InputError(output, "is a directory, expected a file name");
+}
+
+}  // namespace hapvox::cli

@@ -1,0 +1,71 @@
+#pragma once
+// Shared pieces of the `hapvox` command line: flag parsing helpers and the option groups
+// several commands use (volume mapping, material, tool, trace columns, transform).
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "engine/elastic_force.h"
+#include "engine/volume_io.h"
+#include "haptics/replay.h"
+#include "haptics/trace.h"
+
+namespace hapvox::cli {
+
+/// Parses "X,Y,Z" (three finite numbers). Throws InputError(flag, ...).
+Eigen::Vector3d parse_vec3(const std::string& text, const std::string& flag);
+
+/// --threshold / --window flags.
+struct MappingFlags {
+  std::string threshold;  // "" or a number
+  std::string window;     // "" or "LO,HI"
+  void add_to(CLI::App& app);
+  engine::IntensityMapping resolve() const;
+};
+
+/// --time-col, --pos-cols, --time-unit, --pos-unit.
+struct TraceFlags {
+  std::string time_col = "t";
+  std::string pos_cols = "x,y,z";
+  std::string time_unit = "s";
+  std::string pos_unit = "mm";
+  double rate_hz = 1000.0;
+  double max_gap_s = 0.05;
+  void add_to(CLI::App& app);
+  haptics::TraceColumns columns() const;
+};
+
+/// --scale, --rotate-deg, --offset-mm, --fit.
+struct TransformFlags {
+  double scale = 1.0;
+  std::string rotate_deg;
+  std::string offset_mm;
+  bool fit = false;
+  void add_to(CLI::App& app);
+  haptics::DeviceTransform resolve(const haptics::Trace& trace,
+                                   const engine::DensityField& field) const;
+};
+
+/// --youngs-modulus-pa, --poisson, --tool-diameter-mm, --reference-length-mm.
+struct ForceFlags {
+  engine::ElasticForceOptions options;
+  void add_to(CLI::App& app);
+};
+
+/// The command line as typed, recorded in session files.
+void set_command_line(int argc, char** argv);
+const std::string& command_line();
+
+/// Registers each command on the top-level app.
+void add_replay_command(CLI::App& app);
+void add_info_command(CLI::App& app);
+void add_bench_command(CLI::App& app);
+void add_trace_command(CLI::App& app);
+
+/// Fails with InputError(flag, "directory ... does not exist") when OUTPUT's folder is missing.
+void check_output_path(const std::string& output, const std::string& flag);
+
+}  // namespace hapvox::cli

@@ -1,0 +1,140 @@
+// hapvox info FILE: what a volume, trace or session file holds.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "engine/errors.h"
+#include "haptics/session.h"
+#include "tools/cli.h"
+
+namespace hapvox::cli {
+namespace {
+
+struct InfoFlags {
+  std::string path;
+  MappingFlags mapping;
+  TraceFlags trace;
+};
+
+void print_field(const engine::DensityField& field) {
+  const auto& d = field.dims();
+  const auto& v = field.voxel_size_mm();
+  const auto& o = field.origin_mm();
+  std::printf("  dims             %d x %d x %d voxels\n", d.x(), d.y(), d.z());
+  std::printf("  voxel size       %g x %g x %g mm\n", v.x(), v.y(), v.z());
+  std::printf("  origin           %g, %g, %g mm (centre of voxel 0,0,0)\n", o.x(), o.y(), o.z());
+  const auto lo = field.world_min_mm();
+  const auto hi = field.world_max_mm();
+  std::printf("  extent           [%g, %g] x [%g, %g] x [%g, %g] mm\n", lo.x(), hi.x(), lo.y(),
+              hi.y(), lo.z(), hi.z());
+  std::printf("  active voxels    %llu (%.1f %% of the box)\n",
+              static_cast<unsigned long long>(field.active_voxel_count()),
+              100.0 * static_cast<double>(field.active_voxel_count()) /
+                  std::max(1.0, d.cast<double>().prod()));
+  std::printf("  total density    %.6g (voxels of normal density)\n", field.total_density());
+}
+
+void info_volume(const InfoFlags& f) {
+  const std::string ext = std::filesystem::path(f.path).extension().string();
+  if (ext == ".nrrd" || ext == ".nhdr") {
+    const engine::RawVolume raw = engine::read_nrrd(f.path);
+    std::printf("%s: NRRD volume, %s samples\n", f.path.c_str(), raw.sample_type.c_str());
+    std::printf("  intensity        %g .. %g (Otsu threshold %g)\n", raw.min_intensity,
+                raw.max_intensity, engine::otsu_threshold(raw));
+    print_field(engine::map_to_density(raw, f.mapping.resolve(), f.path));
+    return;
+  }
+  const engine::DensityField field = engine::load_volume(f.path, f.mapping.resolve());
+  std::printf("%s: %s\n", f.path.c_str(),
+              engine::is_generator_spec(f.path) ? "generated density volume" : "OpenVDB volume");
+  print_field(field);
+}
+
+void info_trace(const InfoFlags& f) {
+  const haptics::Trace trace = haptics::read_trace(f.path, f.trace.columns());
+  const std::size_t n = trace.time_s.size();
+  std::vector<double> steps(n - 1);
+  for (std::size_t i = 1; i < n; ++i) steps[i - 1] = trace.time_s[i] - trace.time_s[i - 1];
+  const auto gaps =
+      std::count_if(steps.begin(), steps.end(), [&](double s) { return s > f.trace.max_gap_s; });
+  Eigen::Vector3d lo = trace.position_mm[0];
+  Eigen::Vector3d hi = lo;
+  double path_mm = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    lo = lo.cwiseMin(trace.position_mm[i]);
+    hi = hi.cwiseMax(trace.position_mm[i]);
+    if (i > 0) path_mm += (trace.position_mm[i] - trace.position_mm[i - 1]).norm();
+  }
+  const double duration = trace.time_s.back() - trace.time_s.front();
+  std::printf("%s: probe trace\n", f.path.c_str());
+  std::printf("  samples          %zu over %.6g s (mean rate %.6g Hz)\n", n, duration,
+              (n - 1) / duration);
+  std::printf("  time step        min %.6g s, median %.6g s, max %.6g s\n",
+              *std::min_element(steps.begin(), steps.end()), haptics::percentile(steps, 50.0),
+              *std::max_element(steps.begin(), steps.end()));
+  std::printf("  gaps             %td longer than %g s\n", gaps, f.trace.max_gap_s);
+  std::printf("  bounding box     [%g, %g] x [%g, %g] x [%g, %g] mm (device space)\n", lo.x(),
+              hi.x(), lo.y(), hi.y(), lo.z(), hi.z());
+  std::printf("  path length      %.6g mm\n", path_mm);
+}
+
+void info_session(const std::string& path) {
+  const haptics::SessionInfo info = haptics::read_session_info(path);
+  std::printf("%s: hapvox session, %zu ticks, %s\n", path.c_str(), info.rows,
+              info.complete ? "complete" : "INCOMPLETE (the run did not finish)");
+  std::printf("  datasets        ");
+  for (const auto& name : info.datasets) std::printf(" %s", name.c_str());
+  std::printf("\n");
+  for (const auto& [name, value] : info.attributes) {
+    std::printf("  %-28s %s\n", name.c_str(), value.c_str());
+  }
+}
+
+void run_info(const InfoFlags& f) {
+  namespace fs = std::filesystem;
+  const std::string ext = fs::path(f.path).extension().string();
+  if (engine::is_generator_spec(f.path) || ext == ".nrrd" || ext == ".nhdr" || ext == ".vdb") {
+    info_volume(f);
+    return;
+  }
+  if (!fs::exists(f.path)) throw InputError(f.path, "cannot open file");
+  if (ext == ".csv") {
+    info_trace(f);
+    return;
+  }
+  if (ext == ".h5" || ext == ".hdf5") {
+    if (!haptics::is_hdf5_file(f.path)) throw InputError(f.path, "not an HDF5 file");
+    const haptics::SessionInfo probe = [&] {
+      try {
+        return haptics::read_session_info(f.path);
+      } catch (const InputError&) {
+        return haptics::SessionInfo{};
+      }
+    }();
+    if (!probe.datasets.empty()) {
+      info_session(f.path);
+    } else {
+      info_trace(f);
+    }
+    return;
+  }
+  throw InputError(f.path, "unknown file type '" + ext +
+                               "' (expected a volume .nrrd/.nhdr/.vdb, a trace .csv/.h5, or a "
+                               "session .h5)");
+}
+
+}  // namespace
+
+void add_info_command(CLI::App& app) {
+  auto flags = std::make_shared<InfoFlags>();
+  CLI::App* cmd = app.add_subcommand(
+      "info", "Describe a volume (.nrrd, .nhdr, .vdb, generator), trace (.csv, .h5) or session");
+  cmd->add_option("file", flags->path, "File or generator to describe")->required();
+  flags->mapping.add_to(*cmd);
+  flags->trace.add_to(*cmd);
+  cmd->callback([flags] { run_info(*flags); });
+}
+
+}  // namespace hapvox::cli
