@@ -88,9 +88,9 @@ SessionWriter::~SessionWriter() {
 }
 
 void SessionWriter::close_datasets() {
-  for (hid_t d : {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n,
-                  ds_.displacement_mm, ds_.contact_area_mm2, ds_.contact, ds_.holding,
-                  ds_.clamped, ds_.compute_ns}) {
+  for (hid_t d :
+       {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n, ds_.displacement_mm,
+        ds_.contact_area_mm2, ds_.contact, ds_.holding, ds_.clamped, ds_.compute_ns}) {
     H5Dclose(d);
   }
 }
@@ -189,11 +189,7 @@ void SessionWriter::close() {
   flush_rows();
   set_attribute("rows", static_cast<std::int64_t>(rows_written_));
   set_attribute("complete", std::int64_t{1});
-  for (hid_t d :
-       {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n, ds_.displacement_mm,
-        ds_.contact_area_mm2, ds_.contact, ds_.holding, ds_.clamped, ds_.compute_ns}) {
-    H5Dclose(d);
-  }
+  close_datasets();
   const herr_t status = H5Fclose(file_);
   file_ = -1;
   closed_ = true;
