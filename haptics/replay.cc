@@ -31,7 +31,7 @@ double percentile(std::vector<double> values, double pct) {
   return values[index];
 }
 
-ReplaySummary replay_lockstep(const engine::ElasticForceModel& model, const TraceDevice& device,
+ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress) {
   using Clock = std::chrono::steady_clock;
@@ -44,7 +44,7 @@ ReplaySummary replay_lockstep(const engine::ElasticForceModel& model, const Trac
   const double t0 = device.time_s(0);
   summary.duration_s = device.time_s(summary.ticks - 1) - t0;
 
-  engine::ElasticForceState state = model.make_state();
+  engine::ToolForceState state = model.make_state();
   std::vector<double> compute_us(summary.ticks);
   const std::size_t progress_every = std::max<std::size_t>(1, summary.ticks / 100);
 

@@ -8,7 +8,7 @@
 #include <functional>
 #include <vector>
 
-#include "engine/elastic_force.h"
+#include "engine/tool_force.h"
 #include "haptics/session.h"
 #include "haptics/trace.h"
 
@@ -70,7 +70,7 @@ using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 
 /// Runs every tick of `device` through `model` on the simulated clock, appending a row per
 /// tick to `session` (if not null). Does not close the session.
-ReplaySummary replay_lockstep(const engine::ElasticForceModel& model, const TraceDevice& device,
+ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress = {});
 

@@ -4,6 +4,11 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/scripts/setup.sh"
-bash "$root/scripts/build.sh" "$root/build" >/dev/null
+mkdir -p "$root/build"
+if ! bash "$root/scripts/build.sh" "$root/build" >"$root/build/build.log" 2>&1; then
+  tail -n 60 "$root/build/build.log"
+  echo "run.sh: build failed (full log: $root/build/build.log)" >&2
+  exit 1
+fi
 "$root/build/tools/hapvox" replay "$root/traces/engine_press.csv" \
   --volume "$root/data/engine_256x256x128_uint8.nrrd" -o "${1:-engine_press.h5}"

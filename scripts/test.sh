@@ -9,7 +9,13 @@ if [ "${1:-}" = "--sanitize" ]; then
 fi
 bash "$root/scripts/setup.sh"
 build_dir="$root/build${sanitize:+-$sanitize}"
-bash "$root/scripts/build.sh" "$build_dir" -DHAPVOX_SANITIZE="$sanitize" >/dev/null
+# The build's own output goes to a log; on failure its tail is shown.
+mkdir -p "$build_dir"
+if ! bash "$root/scripts/build.sh" "$build_dir" -DHAPVOX_SANITIZE="$sanitize" >"$build_dir/build.log" 2>&1; then
+  tail -n 60 "$build_dir/build.log"
+  echo "test.sh: build failed (full log: $build_dir/build.log)" >&2
+  exit 1
+fi
 export ASAN_OPTIONS=${ASAN_OPTIONS:-"detect_leaks=0:abort_on_error=1"}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-"print_stacktrace=1:halt_on_error=1"}
 export TSAN_OPTIONS=${TSAN_OPTIONS:-"halt_on_error=1"}

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/elastic_force.h"
+#include "engine/tool_force.h"
 #include "engine/volume_io.h"
 #include "haptics/replay.h"
 #include "haptics/trace.h"
@@ -51,7 +51,7 @@ struct TransformFlags {
 
 /// --youngs-modulus-pa, --poisson, --tool-diameter-mm, --reference-length-mm.
 struct ForceFlags {
-  engine::ElasticForceOptions options;
+  engine::ToolForceOptions options;
   void add_to(CLI::App& app);
 };
 

@@ -110,14 +110,14 @@ void run_bench_force(const BenchFlags& f) {
   for (int n : sizes) {
     const engine::DensityField field = make_half_block(n);
     for (int d : diameters) {
-      engine::ElasticForceOptions options;
+      engine::ToolForceOptions options;
       options.tool.diameter_mm = d;
-      const engine::ElasticForceModel model(field, options);
+      const engine::ToolForceModel model(field, options);
       const double r = 0.5 * d;
       // Face between voxel layers n/2-1 and n/2 lies at z = n/2 - 0.5.
       const Eigen::Vector3d press(0.5 * n + 0.37, 0.5 * n - 0.21, 0.5 * n - 0.5 + r - 0.25 * d);
       auto ours = [&model, press](benchmark::State& st) {
-        engine::ElasticForceState state = model.make_state();
+        engine::ToolForceState state = model.make_state();
         model.step(press + Eigen::Vector3d(0, 0, 0.25 * model.options().tool.diameter_mm + 1),
                    state);  // a contact-free position first, as in a real approach
         int i = 0;
@@ -130,7 +130,7 @@ void run_bench_force(const BenchFlags& f) {
         }
       };
       auto naive = [&model, press](benchmark::State& st) {
-        engine::ElasticForceState state = model.make_state();
+        engine::ToolForceState state = model.make_state();
         const Eigen::Vector3d x0 =
             press + Eigen::Vector3d(0, 0, 0.25 * model.options().tool.diameter_mm);
         int i = 0;
@@ -138,7 +138,7 @@ void run_bench_force(const BenchFlags& f) {
           const Eigen::Vector3d p = press + Eigen::Vector3d(0.01 * (i & 15), 0, -0.001 * (i & 7));
           const engine::ContactIntegral c = model.integrate_contact_naive(p, state);
           const Eigen::Vector3d force =
-              engine::ElasticForceModel::traction_force_n(model.stress_pa(p - x0), c);
+              engine::ToolForceModel::traction_force_n(model.stress_pa(p - x0), c);
           benchmark::DoNotOptimize(force);
           ++i;
         }

@@ -78,7 +78,7 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
 
   const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
   const engine::DensityField field = engine::load_volume(f.volume, mapping);
-  const engine::ElasticForceModel model(field, f.force.options);
+  const engine::ToolForceModel model(field, f.force.options);
   const haptics::DeviceTransform transform = f.transform.resolve(trace, field);
   haptics::ResampleOptions resample_options;
   resample_options.rate_hz = f.trace.rate_hz;

@@ -14,8 +14,8 @@
 namespace hapvox::haptics {
 namespace {
 
-engine::ElasticForceOptions small_tool() {
-  engine::ElasticForceOptions o;
+engine::ToolForceOptions small_tool() {
+  engine::ToolForceOptions o;
   o.tool.diameter_mm = 8.0;
   return o;
 }
@@ -53,7 +53,7 @@ TEST(Replay, SafeForceClampsRampsAndZeroesNonFinite) {
 
 TEST(Replay, ForcesAreFiniteClampedAndRampedIn) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
-  const engine::ElasticForceModel model(field, small_tool());
+  const engine::ToolForceModel model(field, small_tool());
   DeviceLimits limits;
   limits.max_force_n = 1.5;
   limits.ramp_in_s = 0.05;
@@ -86,7 +86,7 @@ TEST(Replay, ForcesAreFiniteClampedAndRampedIn) {
 
 TEST(Replay, RepeatedReplaysAreBitIdentical) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
-  const engine::ElasticForceModel model(field, small_tool());
+  const engine::ToolForceModel model(field, small_tool());
   const TraceDevice device = press_device();
   const std::string dir = testing::scratch_dir();
   for (const char* name : {"/a.h5", "/b.h5"}) {
@@ -113,7 +113,7 @@ TEST(Replay, RepeatedReplaysAreBitIdentical) {
 
 TEST(Replay, SessionIsWrittenIncrementallyAndOnlyRenamedWhenComplete) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
-  const engine::ElasticForceModel model(field, small_tool());
+  const engine::ToolForceModel model(field, small_tool());
   const TraceDevice device = press_device();
   const std::string path = testing::scratch_dir() + "/s.h5";
   {
@@ -131,7 +131,7 @@ TEST(Replay, SessionIsWrittenIncrementallyAndOnlyRenamedWhenComplete) {
 
 TEST(Replay, ZeroForceWhileTheTraceNeverTouches) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
-  const engine::ElasticForceModel model(field, small_tool());
+  const engine::ToolForceModel model(field, small_tool());
   TraceMakeOptions make;
   make.shape = TraceShape::kCircle;
   make.start_mm = Vec3d(30, 30, 50);

@@ -121,6 +121,9 @@ struct BadCsv {
   const char* problem;
 };
 
+// Names the case in test listings instead of dumping the struct's bytes.
+void PrintTo(const BadCsv& bad, std::ostream* out) { *out << bad.name; }
+
 class TraceCsvErrorTest : public ::testing::TestWithParam<BadCsv> {};
 
 TEST_P(TraceCsvErrorTest, NamesFileAndProblem) {

@@ -213,6 +213,14 @@ TEST(HapvoxCli, BadTracesAreRejected) {
                      dir + "/text.csv: line 3: column 'y': not a number: 'abc'");
   write_file(dir + "/empty.csv", "");
   expect_input_error(replay(dir + "/empty.csv"), dir + "/empty.csv: empty file: no header row");
+  // Truncated mid-row (a recorder killed while writing) and truncated HDF5.
+  const std::string csv = slurp(press_trace());
+  write_file(dir + "/cut.csv", csv.substr(0, 5000));
+  expect_input_error(replay(dir + "/cut.csv"),
+                     dir + "/cut.csv: line 148: expected 4 fields, found 1");
+  const std::string h5 = slurp(source_path("traces/block_circle.h5"));
+  write_file(dir + "/cut.h5", h5.substr(0, h5.size() / 2));
+  expect_input_error(replay(dir + "/cut.h5"), dir + "/cut.h5: cannot open HDF5 file");
   write_file(dir + "/junk.h5", "not hdf5 at all");
   expect_input_error(replay(dir + "/junk.h5"), dir + "/junk.h5: not an HDF5 file");
   EXPECT_FALSE(fs::exists(out));

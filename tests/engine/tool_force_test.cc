@@ -1,4 +1,4 @@
-#include "engine/elastic_force.h"
+#include "engine/tool_force.h"
 
 #include <gtest/gtest.h>
 
@@ -35,8 +35,8 @@ DensityField make_ball(int n, double voxel_mm, const Vec3d& c_mm, double r_mm) {
   return DensityField(grid, Vec3d::Constant(voxel_mm), Vec3d::Zero(), Vec3i(n, n, n));
 }
 
-ElasticForceOptions options_for(double diameter_mm, double e_pa = 200e3, double nu = 0.3) {
-  ElasticForceOptions o;
+ToolForceOptions options_for(double diameter_mm, double e_pa = 200e3, double nu = 0.3) {
+  ToolForceOptions o;
   o.tool.diameter_mm = diameter_mm;
   o.material.youngs_modulus_pa = e_pa;
   o.material.poisson_ratio = nu;
@@ -45,17 +45,17 @@ ElasticForceOptions options_for(double diameter_mm, double e_pa = 200e3, double 
 
 // docs/physics.md, "Sphere on a flat block": force for a tool whose lowest point is
 // depth_mm below the block's face, with trilinear sampling of voxel size h.
-double closed_form_block_force_n(const ElasticForceModel& model, double depth_mm, double h_mm) {
+double closed_form_block_force_n(const ToolForceModel& model, double depth_mm, double h_mm) {
   const double r = model.tool_radius_mm();
   const double area = kPi * (2.0 * r * depth_mm - depth_mm * depth_mm - h_mm * h_mm / 12.0);
   const double strain = (depth_mm + 0.5 * h_mm) / model.reference_length_mm();
   return (model.lame().lambda_pa + 2.0 * model.lame().mu_pa) * strain * area * 1e-6;
 }
 
-TEST(ElasticForce, ZeroOutOfContact) {
+TEST(ToolForce, ZeroOutOfContact) {
   const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
-  const ElasticForceModel model(field, options_for(8.0));
-  ElasticForceState state = model.make_state();
+  const ToolForceModel model(field, options_for(8.0));
+  ToolForceState state = model.make_state();
   const double face_z = 23.5 * 0.5;
   for (double gap : {5.0, 1.0, 0.3, 0.01}) {
     model.step(Vec3d(12.1, 11.7, face_z + 4.0 + 0.25 + gap), state);  // 0.25: ramp half-width
@@ -67,14 +67,14 @@ TEST(ElasticForce, ZeroOutOfContact) {
   EXPECT_EQ(state.force_n, Vec3d::Zero());
 }
 
-TEST(ElasticForce, SphereOnBlockMatchesClosedForm) {
+TEST(ToolForce, SphereOnBlockMatchesClosedForm) {
   const double h = 0.5;
   const DensityField field = make_block(64, 32, Vec3d::Constant(h));
-  ElasticForceOptions options = options_for(10.0);
+  ToolForceOptions options = options_for(10.0);
   options.sample_spacing_voxels = 0.5;
   options.max_surface_samples = 20000;
-  const ElasticForceModel model(field, options);
-  ElasticForceState state = model.make_state();
+  const ToolForceModel model(field, options);
+  ToolForceState state = model.make_state();
   const double face_z = 31.5 * h;
   const double r = model.tool_radius_mm();
   const Vec3d xy(16.13, 15.87, 0.0);  // off the voxel lattice on purpose
@@ -93,27 +93,27 @@ TEST(ElasticForce, SphereOnBlockMatchesClosedForm) {
   EXPECT_GT(checked, 100);
 }
 
-TEST(ElasticForce, LinearInDisplacementAtFixedContact) {
+TEST(ToolForce, LinearInDisplacementAtFixedContact) {
   const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
-  const ElasticForceModel model(field, options_for(8.0));
-  ElasticForceState state = model.make_state();
+  const ToolForceModel model(field, options_for(8.0));
+  ToolForceState state = model.make_state();
   const Vec3d p(12.0, 12.0, 23.5 * 0.5 + 4.0 - 1.0);
   const ContactIntegral contact = model.integrate_contact(p, state);
   ASSERT_GT(contact.samples_in_contact, 0);
   const Vec3d u(0.1, -0.05, -0.4);
-  const Vec3d f1 = ElasticForceModel::traction_force_n(model.stress_pa(u), contact);
+  const Vec3d f1 = ToolForceModel::traction_force_n(model.stress_pa(u), contact);
   for (double scale : {0.25, 0.5, 2.0, 3.0, 10.0}) {
-    const Vec3d fs = ElasticForceModel::traction_force_n(model.stress_pa(scale * u), contact);
+    const Vec3d fs = ToolForceModel::traction_force_n(model.stress_pa(scale * u), contact);
     EXPECT_LT((fs - scale * f1).norm(), 1e-12 * fs.norm()) << scale;
   }
 }
 
-TEST(ElasticForce, ProportionalToYoungsModulus) {
+TEST(ToolForce, ProportionalToYoungsModulus) {
   const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
-  const ElasticForceModel soft(field, options_for(8.0, 100e3));
-  const ElasticForceModel stiff(field, options_for(8.0, 370e3));
-  ElasticForceState a = soft.make_state();
-  ElasticForceState b = stiff.make_state();
+  const ToolForceModel soft(field, options_for(8.0, 100e3));
+  const ToolForceModel stiff(field, options_for(8.0, 370e3));
+  ToolForceState a = soft.make_state();
+  ToolForceState b = stiff.make_state();
   for (double z = 20.0; z > 14.0; z -= 0.01) {
     const Vec3d p(12.3, 11.9, z);
     soft.step(p, a);
@@ -123,16 +123,16 @@ TEST(ElasticForce, ProportionalToYoungsModulus) {
   EXPECT_GT(b.force_n.norm(), 0.0);
 }
 
-TEST(ElasticForce, PointsOutOfTheMaterial) {
+TEST(ToolForce, PointsOutOfTheMaterial) {
   const double r_ball = 12.0;
   const Vec3d centre(16.0, 16.0, 16.0);
   const DensityField field = make_ball(64, 0.5, centre, r_ball);
-  const ElasticForceModel model(field, options_for(6.0));
+  const ToolForceModel model(field, options_for(6.0));
   std::mt19937 rng(7);
   std::normal_distribution<double> normal;
   for (int trial = 0; trial < 12; ++trial) {
     const Vec3d dir = Vec3d(normal(rng), normal(rng), normal(rng)).normalized();
-    ElasticForceState state = model.make_state();
+    ToolForceState state = model.make_state();
     // Approach the ball's centre along -dir until 1.5 mm past first contact.
     double first_contact = -1.0;
     for (double s = r_ball + 6.0; s > r_ball - 2.0; s -= 0.01) {
@@ -146,10 +146,10 @@ TEST(ElasticForce, PointsOutOfTheMaterial) {
   }
 }
 
-TEST(ElasticForce, NoJumpOnSlowConstantSpeedPress) {
+TEST(ToolForce, NoJumpOnSlowConstantSpeedPress) {
   const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
-  const ElasticForceModel model(field, options_for(8.0));
-  ElasticForceState state = model.make_state();
+  const ToolForceModel model(field, options_for(8.0));
+  ToolForceState state = model.make_state();
   // 10 mm/s at 1 kHz, slightly oblique so the tool crosses voxel boundaries on all axes.
   const Vec3d start(11.0, 11.0, 18.0);
   const Vec3d velocity = Vec3d(0.7, 0.4, -10.0);
@@ -168,13 +168,13 @@ TEST(ElasticForce, NoJumpOnSlowConstantSpeedPress) {
   EXPECT_LT(max_jump, 0.02 * peak) << "peak " << peak;
 }
 
-TEST(ElasticForce, SlidingForceIsBoundedByTheSlipRatioAndOpposesMotion) {
+TEST(ToolForce, SlidingForceIsBoundedByTheSlipRatioAndOpposesMotion) {
   const DensityField field = make_block(96, 24, Vec3d::Constant(0.5));
   auto slide = [&](double slip_ratio) {
-    ElasticForceOptions options = options_for(8.0);
+    ToolForceOptions options = options_for(8.0);
     options.slip_ratio = slip_ratio;
-    const ElasticForceModel model(field, options);
-    ElasticForceState state = model.make_state();
+    const ToolForceModel model(field, options);
+    ToolForceState state = model.make_state();
     const double z_pressed = 23.5 * 0.5 + 4.0 - 1.0;  // 1 mm into the face
     for (double z = z_pressed + 2.0; z > z_pressed; z -= 0.01) model.step(Vec3d(8, 24, z), state);
     std::vector<Vec3d> forces;
@@ -195,11 +195,113 @@ TEST(ElasticForce, SlidingForceIsBoundedByTheSlipRatioAndOpposesMotion) {
   EXPECT_GT(sticking.back().norm(), 3.0 * slipping.back().norm());
 }
 
-TEST(ElasticForce, DeterministicAcrossRuns) {
+// Slope of stress over strain by least squares over the points of one zone.
+double fitted_slope(const std::vector<std::pair<double, double>>& points) {
+  double mx = 0, my = 0;
+  for (const auto& [x, y] : points) mx += x, my += y;
+  mx /= points.size();
+  my /= points.size();
+  double sxy = 0, sxx = 0;
+  for (const auto& [x, y] : points) sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
+  return sxy / sxx;
+}
+
+struct PathRecord {
+  std::vector<std::pair<double, double>> elastic, load, unload, reload_elastic;
+  double first_yield_pa = -1, reload_yield_pa = -1, unload_start_pa = -1;
+  int surface_changes = 0;
+  Vec3d origin_after_unload = Vec3d::Zero();
+};
+
+// Press 2 mm into a block, back off 0.6 mm, press again to 2.5 mm.
+PathRecord press_release_press(double e_ep_pa) {
+  static const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
+  ToolForceOptions options = options_for(8.0, 200e3);
+  options.plastic.enabled = true;
+  options.plastic.yield_stress_pa = 30e3;
+  options.plastic.elastoplastic_modulus_pa = e_ep_pa;
+  const ToolForceModel model(field, options);
+  ToolForceState state = model.make_state();
+  const double top = 23.5 * 0.5 + 4.0 + 0.25;  // tool centre at first contact
+  std::vector<double> path;
+  for (double z = top + 1.0; z > top - 2.0; z -= 0.002) path.push_back(z);
+  for (double z = top - 2.0; z < top - 1.4; z += 0.002) path.push_back(z);
+  for (double z = top - 1.4; z > top - 2.5; z -= 0.002) path.push_back(z);
+  PathRecord r;
+  int phase = 0;  // 0 first load, 1 unload, 2 reload
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    if (i > 0 && phase == 0 && path[i] > path[i - 1]) phase = 1;
+    if (i > 0 && phase == 1 && path[i] < path[i - 1]) {
+      phase = 2;
+      r.origin_after_unload = state.contact_origin_mm;
+    }
+    model.step(Vec3d(12.1, 11.9, path[i]), state);
+    r.surface_changes += state.surface_change_emitted;
+    const std::pair<double, double> point(state.strain, state.stress_measure_pa);
+    if (state.zone == PlasticZone::kElastic && phase == 0 && state.strain > 0) {
+      r.elastic.push_back(point);
+    } else if (state.zone == PlasticZone::kPlasticLoad) {
+      if (phase == 0 && r.first_yield_pa < 0) r.first_yield_pa = state.stress_measure_pa;
+      if (phase == 2 && r.reload_yield_pa < 0) r.reload_yield_pa = state.stress_measure_pa;
+      if (phase == 0) r.load.push_back(point);
+    } else if (state.zone == PlasticZone::kPlasticUnload) {
+      if (r.unload_start_pa < 0) r.unload_start_pa = r.load.back().second;
+      (phase == 1 ? r.unload : r.reload_elastic).push_back(point);
+    }
+  }
+  return r;
+}
+
+TEST(ToolForce, PlasticPathShowsTheThreeSlopesAndTheYield) {
+  const double e = 200e3;
+  for (double e_ep : {0.0, 40e3}) {
+    const PathRecord r = press_release_press(e_ep);
+    ASSERT_GT(r.elastic.size(), 20u);
+    ASSERT_GT(r.load.size(), 20u);
+    ASSERT_GT(r.unload.size(), 20u);
+    EXPECT_NEAR(fitted_slope(r.elastic), e, 0.02 * e) << e_ep;
+    if (e_ep > 0) {
+      EXPECT_NEAR(fitted_slope(r.load), e_ep, 0.02 * e_ep);
+    } else {
+      EXPECT_NEAR(fitted_slope(r.load), 0.0, 0.001 * e);  // perfectly plastic: flat
+    }
+    EXPECT_NEAR(fitted_slope(r.unload), e, 0.02 * e) << e_ep;
+    EXPECT_NEAR(fitted_slope(r.reload_elastic), e, 0.02 * e) << e_ep;
+    // Yield at sigma_f; on reload at the stress reached before unloading (hardened).
+    EXPECT_NEAR(r.first_yield_pa, 30e3, 0.02 * 30e3) << e_ep;
+    EXPECT_NEAR(r.reload_yield_pa, r.unload_start_pa, 0.02 * r.unload_start_pa) << e_ep;
+    // Hardening: sigma_f + E_ep x (strain at unload 2 mm / 4 mm - strain at yield).
+    const double yield_strain = 30e3 / e;
+    EXPECT_NEAR(r.reload_yield_pa, 30e3 + e_ep * (0.5 - yield_strain), 0.02 * 30e3) << e_ep;
+    // Plastic ticks asked for surface changes; the surface moved down for good.
+    EXPECT_GE(r.surface_changes, static_cast<int>(r.load.size()));
+    EXPECT_GT(r.surface_changes, 100);
+    EXPECT_LT(r.origin_after_unload.z(), 23.5 * 0.5 + 4.0 + 0.25 - 0.5);
+  }
+}
+
+TEST(ToolForce, RejectsNonsensePlasticMaterial) {
+  const DensityField field = make_block(16, 8, Vec3d::Constant(1.0));
+  ToolForceOptions o = options_for(4.0, 1e5);
+  o.plastic.enabled = true;
+  o.plastic.yield_stress_pa = 0.0;
+  EXPECT_THROW(ToolForceModel(field, o), InputError);
+  o.plastic.yield_stress_pa = 1e4;
+  o.plastic.elastoplastic_modulus_pa = 1e5;  // = E
+  try {
+    ToolForceModel model(field, o);
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_STREQ(error.what(),
+                 "material: elasto-plastic modulus must lie in [0, E), got 100000 Pa");
+  }
+}
+
+TEST(ToolForce, DeterministicAcrossRuns) {
   const DensityField field = make_block(48, 24, Vec3d::Constant(0.5));
-  const ElasticForceModel model(field, options_for(8.0));
+  const ToolForceModel model(field, options_for(8.0));
   auto run = [&] {
-    ElasticForceState state = model.make_state();
+    ToolForceState state = model.make_state();
     std::vector<Vec3d> out;
     for (int tick = 0; tick < 800; ++tick) {
       const double t = tick * 1e-3;
@@ -211,10 +313,10 @@ TEST(ElasticForce, DeterministicAcrossRuns) {
   EXPECT_EQ(run(), run());
 }
 
-TEST(ElasticForce, NaiveBaselineAgreesWithSurfaceQuadrature) {
+TEST(ToolForce, NaiveBaselineAgreesWithSurfaceQuadrature) {
   const DensityField field = make_block(64, 32, Vec3d::Constant(0.5));
-  const ElasticForceModel model(field, options_for(16.0));
-  ElasticForceState state = model.make_state();
+  const ToolForceModel model(field, options_for(16.0));
+  ToolForceState state = model.make_state();
   const Vec3d p(16.2, 15.9, 31.5 * 0.5 + 8.0 - 3.0);
   const ContactIntegral fast = model.integrate_contact(p, state);
   const ContactIntegral naive = model.integrate_contact_naive(p, state);
@@ -223,16 +325,16 @@ TEST(ElasticForce, NaiveBaselineAgreesWithSurfaceQuadrature) {
               0.1 * std::abs(fast.area_vector_mm2.z()));
 }
 
-TEST(ElasticForce, AnisotropicVoxelsMatchTheClosedForm) {
+TEST(ToolForce, AnisotropicVoxelsMatchTheClosedForm) {
   // Thin z voxels (0.25 mm) under 0.5 mm x/y voxels: the tool is an ellipsoid in index
   // space, the force must still be the sphere's, with the ramp width of the z spacing.
   const double hz = 0.25;
   const DensityField field = make_block(48, 48, Vec3d(0.5, 0.5, hz));
-  ElasticForceOptions options = options_for(8.0);
+  ToolForceOptions options = options_for(8.0);
   options.sample_spacing_voxels = 0.5;
   options.max_surface_samples = 20000;
-  const ElasticForceModel model(field, options);
-  ElasticForceState state = model.make_state();
+  const ToolForceModel model(field, options);
+  ToolForceState state = model.make_state();
   const double face_z = 47.5 * hz;
   for (int tick = 0; tick < 700; ++tick) {
     const double depth = -5.0 + tick * 0.01;
@@ -244,11 +346,11 @@ TEST(ElasticForce, AnisotropicVoxelsMatchTheClosedForm) {
   }
 }
 
-TEST(ElasticForce, RejectsNonsenseMaterialAndTool) {
+TEST(ToolForce, RejectsNonsenseMaterialAndTool) {
   const DensityField field = make_block(16, 8, Vec3d::Constant(1.0));
-  auto message = [&](ElasticForceOptions o) {
+  auto message = [&](ToolForceOptions o) {
     try {
-      ElasticForceModel model(field, o);
+      ToolForceModel model(field, o);
     } catch (const InputError& e) {
       return std::string(e.what());
     }

@@ -1,4 +1,4 @@
-#include "engine/elastic_force.h"
+#include "engine/tool_force.h"
 
 #include <algorithm>
 #include <cmath>
@@ -26,10 +26,10 @@ int fibonacci_sample_count(double radius_mm, double spacing_mm, int min_count, i
 
 }  // namespace
 
-ElasticForceState::ElasticForceState(const DensityField& field)
+ToolForceState::ToolForceState(const DensityField& field)
     : accessor(field.grid().getConstAccessor()) {}
 
-ElasticForceModel::ElasticForceModel(const DensityField& field, const ElasticForceOptions& options)
+ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions& options)
     : field_(&field), options_(options) {
   lame_ = lame_parameters(options.material);
   const double d = options.tool.diameter_mm;
@@ -44,6 +44,22 @@ ElasticForceModel::ElasticForceModel(const DensityField& field, const ElasticFor
   if (!(options.sample_spacing_voxels > 0.0) || options.min_surface_samples < 1 ||
       options.max_surface_samples < options.min_surface_samples) {
     throw InputError("tool", "surface sampling options are out of range");
+  }
+  const PlasticMaterial& plastic = options.plastic;
+  if (plastic.enabled) {
+    if (!std::isfinite(plastic.yield_stress_pa) || plastic.yield_stress_pa <= 0.0) {
+      std::ostringstream out;
+      out << "yield stress must be positive and finite, got " << plastic.yield_stress_pa << " Pa";
+      throw InputError("material", out.str());
+    }
+    if (!std::isfinite(plastic.elastoplastic_modulus_pa) ||
+        plastic.elastoplastic_modulus_pa < 0.0 ||
+        plastic.elastoplastic_modulus_pa >= options.material.youngs_modulus_pa) {
+      std::ostringstream out;
+      out << "elasto-plastic modulus must lie in [0, E), got " << plastic.elastoplastic_modulus_pa
+          << " Pa";
+      throw InputError("material", out.str());
+    }
   }
   const double radius_mm = 0.5 * d;
   reference_length_mm_ =
@@ -85,7 +101,7 @@ ElasticForceModel::ElasticForceModel(const DensityField& field, const ElasticFor
   active_bbox_.expand(1);
 }
 
-bool ElasticForceModel::may_touch(const Vec3d& c) const {
+bool ToolForceModel::may_touch(const Vec3d& c) const {
   if (active_bbox_.empty()) return false;
   const openvdb::Coord lo = active_bbox_.min();
   const openvdb::Coord hi = active_bbox_.max();
@@ -95,7 +111,7 @@ bool ElasticForceModel::may_touch(const Vec3d& c) const {
   return true;
 }
 
-float ElasticForceModel::sample_density(const Eigen::Vector3f& q, ElasticForceState& s) const {
+float ToolForceModel::sample_density(const Eigen::Vector3f& q, ToolForceState& s) const {
   const float fx0 = std::floor(q.x());
   const float fy0 = std::floor(q.y());
   const float fz0 = std::floor(q.z());
@@ -149,8 +165,7 @@ float ElasticForceModel::sample_density(const Eigen::Vector3f& q, ElasticForceSt
   return b0 + fx * (b1 - b0);
 }
 
-ContactIntegral ElasticForceModel::integrate_contact(const Vec3d& center_mm,
-                                                     ElasticForceState& s) const {
+ContactIntegral ToolForceModel::integrate_contact(const Vec3d& center_mm, ToolForceState& s) const {
   ContactIntegral result;
   const Vec3d center_index = field_->world_to_index(center_mm);
   if (!may_touch(center_index)) return result;
@@ -174,7 +189,7 @@ ContactIntegral ElasticForceModel::integrate_contact(const Vec3d& center_mm,
   return result;
 }
 
-bool ElasticForceModel::touches(const Vec3d& center_mm, ElasticForceState& s) const {
+bool ToolForceModel::touches(const Vec3d& center_mm, ToolForceState& s) const {
   const Vec3d center_index = field_->world_to_index(center_mm);
   if (!may_touch(center_index)) return false;
   const Eigen::Vector3f c = center_index.cast<float>();
@@ -184,8 +199,8 @@ bool ElasticForceModel::touches(const Vec3d& center_mm, ElasticForceState& s) co
   return false;
 }
 
-Vec3d ElasticForceModel::refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
-                                               ElasticForceState& s) const {
+Vec3d ToolForceModel::refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
+                                            ToolForceState& s) const {
   Vec3d lo = free_mm;
   Vec3d hi = touching_mm;
   for (int i = 0; i < options_.onset_refinement_steps; ++i) {
@@ -199,8 +214,8 @@ Vec3d ElasticForceModel::refine_contact_origin(const Vec3d& free_mm, const Vec3d
   return lo;
 }
 
-Vec3d ElasticForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origin_mm,
-                                              const ContactIntegral& contact) const {
+Vec3d ToolForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origin_mm,
+                                           const ContactIntegral& contact) const {
   const double ratio = options_.slip_ratio;
   const double n_length = contact.area_vector_mm2.norm();
   if (!(ratio >= 0.0) || std::isinf(ratio) || !(n_length > 0.0)) return origin_mm;
@@ -215,7 +230,7 @@ Vec3d ElasticForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& or
   return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping
 }
 
-Eigen::Matrix3d ElasticForceModel::stress_pa(const Vec3d& u) const {
+Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u) const {
   const double length = u.norm();
   if (!(length > 0.0)) return Eigen::Matrix3d::Zero();
   const Vec3d dir = u / length;
@@ -225,15 +240,57 @@ Eigen::Matrix3d ElasticForceModel::stress_pa(const Vec3d& u) const {
          2.0 * lame_.mu_pa * strain * (dir * dir.transpose());
 }
 
-Vec3d ElasticForceModel::traction_force_n(const Eigen::Matrix3d& stress,
-                                          const ContactIntegral& contact) {
+Vec3d ToolForceModel::traction_force_n(const Eigen::Matrix3d& stress,
+                                       const ContactIntegral& contact) {
   // The tool's outward normal is the inward normal of the material it presses, so the
   // material pushes on the tool with sigma n dA integrated over the contact.
   return stress * contact.area_vector_mm2 * kMm2PaToNewton;
 }
 
-void ElasticForceModel::step(const Vec3d& x_mm, ElasticForceState& s) const {
+void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) const {
+  s.surface_change_emitted = false;
+  if (!options_.plastic.enabled) {
+    s.zone = PlasticZone::kElastic;
+    s.stress_measure_pa = options_.material.youngs_modulus_pa *
+                          (x_mm - s.contact_origin_mm).norm() / reference_length_mm_;
+    s.strain = (x_mm - s.contact_origin_mm).norm() / reference_length_mm_;
+    return;
+  }
+  const double e = options_.material.youngs_modulus_pa;
+  const double e_ep = options_.plastic.elastoplastic_modulus_pa;
+  // Hardening modulus H of the plastic strain that gives the tangent slope E_ep.
+  const double hardening = e * e_ep / (e - e_ep);
+  const Vec3d u = x_mm - s.contact_origin_mm;
+  const double u_length = u.norm();
+  const double trial_stress = e * u_length / reference_length_mm_;
+  const double previous_stress = s.stress_measure_pa;
+  if (trial_stress > s.yield_stress_pa && u_length > 0.0) {
+    const Vec3d dir = u / u_length;
+    const double plastic_strain = (trial_stress - s.yield_stress_pa) / (e + hardening);
+    s.yield_stress_pa += hardening * plastic_strain;
+    s.plastic_strain += plastic_strain;
+    // The surface moves permanently: x0 follows the push by the plastic displacement.
+    s.contact_origin_mm += dir * (plastic_strain * reference_length_mm_);
+    s.zone = PlasticZone::kPlasticLoad;
+    s.surface_change_emitted = true;
+    s.surface_change.position_mm = s.contact_origin_mm;
+    s.surface_change.direction = dir;
+    s.surface_change.radius_mm = tool_radius_mm();
+    ++s.plastic_steps;
+  } else if (s.plastic_strain > 0.0 &&
+             (trial_stress < previous_stress || s.zone == PlasticZone::kPlasticUnload)) {
+    s.zone = PlasticZone::kPlasticUnload;
+  } else if (s.plastic_strain == 0.0) {
+    s.zone = PlasticZone::kElastic;
+  }
+  const double elastic_length = (x_mm - s.contact_origin_mm).norm();
+  s.stress_measure_pa = e * elastic_length / reference_length_mm_;
+  s.strain = elastic_length / reference_length_mm_ + s.plastic_strain;
+}
+
+void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
   ++s.steps;
+  s.surface_change_emitted = false;
   s.contact = integrate_contact(x_mm, s);
   const bool contact = s.contact.samples_in_contact > 0;
   if (!contact) {
@@ -242,8 +299,16 @@ void ElasticForceModel::step(const Vec3d& x_mm, ElasticForceState& s) const {
     s.displacement_mm.setZero();
     s.stress_pa.setZero();
     s.force_n.setZero();
+    s.zone = PlasticZone::kNoContact;
+    s.strain = 0.0;
+    s.stress_measure_pa = 0.0;
   } else {
     if (!s.in_contact) {
+      // A new contact: elastic again, with the material's own yield stress.
+      s.plastic_strain = 0.0;
+      s.stress_measure_pa = 0.0;
+      s.yield_stress_pa = options_.plastic.yield_stress_pa;
+      s.zone = PlasticZone::kElastic;
       ++s.contact_onsets;
       if (s.has_position) {
         s.contact_origin_mm = refine_contact_origin(s.last_position_mm, x_mm, s);
@@ -254,6 +319,7 @@ void ElasticForceModel::step(const Vec3d& x_mm, ElasticForceState& s) const {
     }
     s.in_contact = true;
     s.contact_origin_mm = slide_contact_origin(x_mm, s.contact_origin_mm, s.contact);
+    apply_plasticity(x_mm, s);
     s.displacement_mm = x_mm - s.contact_origin_mm;
     s.stress_pa = stress_pa(s.displacement_mm);
     s.force_n = traction_force_n(s.stress_pa, s.contact);
@@ -266,8 +332,8 @@ void ElasticForceModel::step(const Vec3d& x_mm, ElasticForceState& s) const {
   s.has_position = true;
 }
 
-ContactIntegral ElasticForceModel::integrate_contact_naive(const Vec3d& center_mm,
-                                                           ElasticForceState& s) const {
+ContactIntegral ToolForceModel::integrate_contact_naive(const Vec3d& center_mm,
+                                                        ToolForceState& s) const {
   ContactIntegral result;
   const Vec3d voxel = field_->voxel_size_mm();
   const Vec3d c = field_->world_to_index(center_mm);

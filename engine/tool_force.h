@@ -1,6 +1,7 @@
 #pragma once
-// Elastic tool force (Prados, Leon Salas & Torres, "Interactive elastic deformation of 3D
-// images", Eq. 4-8), as pinned down in docs/physics.md:
+// Tool force: linear elasticity (Prados, Leon Salas & Torres, "Interactive elastic
+// deformation of 3D images", Eq. 4-8) and, optionally, incremental plasticity (Prados et
+// al., "Volumetric plastic deformation", section 4.2), as pinned down in docs/physics.md:
 //
 //   contact      some density under the tool's surface (Eq. 7), sampled trilinearly;
 //   x0           the last contact-free tool centre, refined by bisection between ticks;
@@ -9,6 +10,8 @@
 //   stress       Eq. 6: sigma = lambda tr(eps) I + 2 mu eps   (Pa)
 //   force        Eq. 8 as a surface integral over the tool's contacting surface:
 //                  F = sigma * N,  N = sum_k rho_k n_k dA_k     (mm^2; F in N after 1e-6)
+//   plasticity   yield when s = E |u| / L exceeds sigma_f: x0 moves along the push
+//                (return mapping, slope E_ep), sigma_f hardens, a SurfaceChange is emitted.
 //
 // Model (const, shared) / state (mutable, one per thread), MuJoCo-style: step() is the
 // readable sequence of stages, each also public for tests and benchmarks. step() does not
@@ -29,9 +32,29 @@ struct SphereTool {
   double diameter_mm = 8.0;
 };
 
-struct ElasticForceOptions {
+/// Incremental plasticity (Prados et al. 2011b): elastic slope E up to the yield stress
+/// sigma_f, elasto-plastic load slope E_ep (0 <= E_ep < E; E_ep > 0 is linear hardening,
+/// raising sigma_f), elastic unload with slope E.
+struct PlasticMaterial {
+  bool enabled = false;
+  double yield_stress_pa = 20e3;
+  double elastoplastic_modulus_pa = 0.0;
+};
+
+/// What a plastic step asks the relaxation to do: empty the tool's sphere at
+/// `position_mm` (the tool centre on the new surface), pushing material along `direction`.
+struct SurfaceChange {
+  Vec3d position_mm = Vec3d::Zero();
+  Vec3d direction = Vec3d::Zero();  // unit
+  double radius_mm = 0.0;
+};
+
+enum class PlasticZone : std::uint8_t { kNoContact = 0, kElastic, kPlasticLoad, kPlasticUnload };
+
+struct ToolForceOptions {
   SphereTool tool;
   ElasticMaterial material;
+  PlasticMaterial plastic;
   /// L in the strain; 0 selects the tool radius (strain = indentation / radius).
   double reference_length_mm = 0.0;
   /// Target spacing of the surface quadrature points, in units of the smallest voxel size.
@@ -54,8 +77,8 @@ struct ContactIntegral {
 };
 
 /// Per-thread mutable state of the elastic force model.
-struct ElasticForceState {
-  explicit ElasticForceState(const DensityField& field);
+struct ToolForceState {
+  explicit ToolForceState(const DensityField& field);
 
   // Carried between steps.
   bool has_position = false;
@@ -68,6 +91,16 @@ struct ElasticForceState {
   Eigen::Matrix3d stress_pa = Eigen::Matrix3d::Zero();
   ContactIntegral contact;
   Vec3d force_n = Vec3d::Zero();
+
+  // Plasticity (per contact; reset when contact ends).
+  PlasticZone zone = PlasticZone::kNoContact;
+  double yield_stress_pa = 0.0;    // current sigma_f (hardened)
+  double plastic_strain = 0.0;     // accumulated plastic strain of this contact
+  double strain = 0.0;             // total strain |u|/L + plastic strain
+  double stress_measure_pa = 0.0;  // s = E |u| / L, the scalar the yield rule uses
+  bool surface_change_emitted = false;
+  SurfaceChange surface_change;
+  std::uint64_t plastic_steps = 0;
 
   // Counters (problems are counted, never logged, on the force path).
   std::uint64_t steps = 0;
@@ -82,28 +115,31 @@ struct ElasticForceState {
   float cached_tile_value = 0.0f;
 };
 
-class ElasticForceModel {
+class ToolForceModel {
  public:
   /// Validates the options (throws InputError on a bad material or tool) and precomputes
   /// the surface quadrature. `field` must outlive the model.
-  ElasticForceModel(const DensityField& field, const ElasticForceOptions& options);
+  ToolForceModel(const DensityField& field, const ToolForceOptions& options);
 
-  ElasticForceState make_state() const { return ElasticForceState(*field_); }
+  ToolForceState make_state() const { return ToolForceState(*field_); }
 
   /// One force tick at tool centre `tool_center_mm` (volume space). Fills state's results.
-  void step(const Vec3d& tool_center_mm, ElasticForceState& state) const;
+  void step(const Vec3d& tool_center_mm, ToolForceState& state) const;
 
   // --- Stages of step(), in order. ---
   /// Surface integral of density-weighted normals at this tool position.
-  ContactIntegral integrate_contact(const Vec3d& tool_center_mm, ElasticForceState& state) const;
+  ContactIntegral integrate_contact(const Vec3d& tool_center_mm, ToolForceState& state) const;
   /// Contact test only (Eq. 7), stops at the first sample with density > 0.
-  bool touches(const Vec3d& tool_center_mm, ElasticForceState& state) const;
+  bool touches(const Vec3d& tool_center_mm, ToolForceState& state) const;
   /// x0 between a contact-free position and a touching one, by bisection.
   Vec3d refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
-                              ElasticForceState& state) const;
+                              ToolForceState& state) const;
   /// Moves x0 tangentially so |u_t| <= slip_ratio |u_n| (n from the contact integral).
   Vec3d slide_contact_origin(const Vec3d& tool_center_mm, const Vec3d& origin_mm,
                              const ContactIntegral& contact) const;
+  /// Return mapping of the incremental plasticity: updates x0, sigma_f and the zone, and
+  /// emits a SurfaceChange on a plastic step. No-op when plasticity is disabled.
+  void apply_plasticity(const Vec3d& tool_center_mm, ToolForceState& state) const;
   /// Eq. 6 for the uniaxial strain of displacement u (Pa).
   Eigen::Matrix3d stress_pa(const Vec3d& displacement_mm) const;
   /// Eq. 8: F = sigma N (N).
@@ -112,10 +148,9 @@ class ElasticForceModel {
   /// The seed's approach, for benchmarks: every voxel of the tool's bounding box read
   /// through a ValueAccessor; voxels whose centre lies within half a voxel of the sphere
   /// contribute density x normal x area. Same quantity as integrate_contact, coarser.
-  ContactIntegral integrate_contact_naive(const Vec3d& tool_center_mm,
-                                          ElasticForceState& state) const;
+  ContactIntegral integrate_contact_naive(const Vec3d& tool_center_mm, ToolForceState& state) const;
 
-  const ElasticForceOptions& options() const { return options_; }
+  const ToolForceOptions& options() const { return options_; }
   const LameParameters& lame() const { return lame_; }
   double reference_length_mm() const { return reference_length_mm_; }
   double tool_radius_mm() const { return 0.5 * options_.tool.diameter_mm; }
@@ -123,11 +158,11 @@ class ElasticForceModel {
   const DensityField& field() const { return *field_; }
 
  private:
-  float sample_density(const Eigen::Vector3f& q_index, ElasticForceState& state) const;
+  float sample_density(const Eigen::Vector3f& q_index, ToolForceState& state) const;
   bool may_touch(const Vec3d& center_index) const;
 
   const DensityField* field_;
-  ElasticForceOptions options_;
+  ToolForceOptions options_;
   LameParameters lame_;
   double reference_length_mm_;
   double sample_area_mm2_;
