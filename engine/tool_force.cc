@@ -99,6 +99,8 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
 
   active_bbox_ = field.grid().evalActiveVoxelBoundingBox();
   active_bbox_.expand(1);
+  // Sculpted material can flow anywhere: no early-out on the initial bounds.
+  if (options.plastic.enabled) active_bbox_ = openvdb::CoordBBox::inf();
 }
 
 bool ToolForceModel::may_touch(const Vec3d& c) const {
@@ -273,6 +275,7 @@ void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) cons
     s.contact_origin_mm += dir * (plastic_strain * reference_length_mm_);
     s.zone = PlasticZone::kPlasticLoad;
     s.surface_change_emitted = true;
+    s.surface_change.from_mm = s.contact_origin_mm;
     s.surface_change.position_mm = s.contact_origin_mm;
     s.surface_change.direction = dir;
     s.surface_change.radius_mm = tool_radius_mm();

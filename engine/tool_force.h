@@ -43,7 +43,10 @@ struct PlasticMaterial {
 
 /// What a plastic step asks the relaxation to do: empty the tool's sphere at
 /// `position_mm` (the tool centre on the new surface), pushing material along `direction`.
+/// Coalesced changes sweep the sphere from `from_mm` to `position_mm` (a capsule); a
+/// single change has from_mm == position_mm.
 struct SurfaceChange {
+  Vec3d from_mm = Vec3d::Zero();
   Vec3d position_mm = Vec3d::Zero();
   Vec3d direction = Vec3d::Zero();  // unit
   double radius_mm = 0.0;
@@ -113,6 +116,13 @@ struct ToolForceState {
   const openvdb::FloatTree::LeafNodeType* cached_leaf = nullptr;
   openvdb::Coord cached_leaf_origin{openvdb::Coord::max()};
   float cached_tile_value = 0.0f;
+
+  /// Call after the field this state reads has been changed (lockstep only).
+  void invalidate_cache() {
+    accessor.clear();
+    cached_leaf = nullptr;
+    cached_leaf_origin = openvdb::Coord::max();
+  }
 };
 
 class ToolForceModel {

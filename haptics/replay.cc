@@ -33,7 +33,8 @@ double percentile(std::vector<double> values, double pct) {
 
 ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
-                              const ProgressFn& progress) {
+                              const ProgressFn& progress, SculptContext* sculpt,
+                              SculptSummary* sculpt_summary) {
   using Clock = std::chrono::steady_clock;
   ReplaySummary summary;
   summary.ticks = device.tick_count();
@@ -45,6 +46,15 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
   summary.duration_s = device.time_s(summary.ticks - 1) - t0;
 
   engine::ToolForceState state = model.make_state();
+  SculptSummary sculpted;
+  std::int64_t mass_units = 0;
+  if (sculpt != nullptr) {
+    HAPVOX_CHECK(sculpt->mass != nullptr && sculpt->mirror != nullptr &&
+                 sculpt->channel != nullptr);
+    HAPVOX_CHECK(&model.field() == sculpt->mirror);
+    mass_units = sculpt->mass->total_mass_units();
+    sculpted.initial_mass_units = mass_units;
+  }
   std::vector<double> compute_us(summary.ticks);
   const std::size_t progress_every = std::max<std::size_t>(1, summary.ticks / 100);
 
@@ -63,6 +73,35 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
     row.force_n = safe_force(state.force_n, ramp, limits, &clamped, &nonfinite);
     const auto end = Clock::now();
 
+    row.strain = state.strain;
+    row.stress_measure_pa = state.stress_measure_pa;
+    row.zone = static_cast<std::uint8_t>(state.zone);
+    row.plastic_event = state.surface_change_emitted ? 1 : 0;
+    if (sculpt != nullptr) {
+      // Force stage output -> channel (as the force thread does in realtime).
+      if (state.surface_change_emitted) {
+        sculpt->channel->push(state.surface_change);
+        ++sculpted.plastic_events;
+      } else {
+        sculpt->channel->flush();
+      }
+      row.queue_depth = sculpt->channel->depth();
+      sculpted.max_queue_depth = std::max<std::size_t>(sculpted.max_queue_depth, row.queue_depth);
+      // Relaxation stage: deletions first (highest priority), then a fixed budget.
+      const engine::RelaxWork before = sculpt->mass->work();
+      engine::SurfaceChange change;
+      while (sculpt->channel->pop(change)) sculpt->mass->apply_deletion(change);
+      sculpt->mass->relax(sculpt->relax_voxels_per_tick);
+      if (sculpt->mass->publish_changes(*sculpt->mirror) > 0) state.invalidate_cache();
+      row.deleted_voxels =
+          static_cast<std::int64_t>(sculpt->mass->work().deleted_voxels - before.deleted_voxels);
+      row.relaxed_voxels =
+          static_cast<std::int64_t>(sculpt->mass->work().relaxed_voxels - before.relaxed_voxels);
+      if (sculpt->mass_every_ticks > 0 && tick % sculpt->mass_every_ticks == 0) {
+        mass_units = sculpt->mass->total_mass_units();
+      }
+      row.total_mass_units = mass_units;
+    }
     row.displacement_mm = state.displacement_mm;
     row.contact_area_mm2 = state.contact.contact_area_mm2;
     row.contact = state.in_contact ? 1 : 0;
@@ -76,6 +115,19 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
     summary.peak_force_n = std::max(summary.peak_force_n, row.force_n.norm());
     if (session != nullptr) session->append(row);
     if (progress && (tick + 1) % progress_every == 0) progress(tick + 1, summary.ticks);
+  }
+  if (sculpt != nullptr) {
+    // Whatever the channel still holds is applied before the summary.
+    sculpt->channel->flush();
+    engine::SurfaceChange change;
+    while (sculpt->channel->pop(change)) sculpt->mass->apply_deletion(change);
+    sculpt->mass->publish_changes(*sculpt->mirror);
+    sculpted.queue_overflows = sculpt->channel->overflows();
+    sculpted.deleted_voxels = sculpt->mass->work().deleted_voxels;
+    sculpted.relaxed_voxels = sculpt->mass->work().relaxed_voxels;
+    sculpted.final_mass_units = sculpt->mass->total_mass_units();
+    sculpted.settled = sculpt->mass->settled();
+    if (sculpt_summary != nullptr) *sculpt_summary = sculpted;
   }
   summary.contact_time_s = static_cast<double>(summary.contact_ticks) * dt_s;
   summary.contact_onsets = state.contact_onsets;

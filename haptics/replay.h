@@ -8,8 +8,10 @@
 #include <functional>
 #include <vector>
 
+#include "engine/relax.h"
 #include "engine/tool_force.h"
 #include "haptics/session.h"
+#include "haptics/surface_channel.h"
 #include "haptics/trace.h"
 
 namespace hapvox::haptics {
@@ -65,14 +67,42 @@ struct ReplaySummary {
   double compute_max_us = 0.0;
 };
 
+/// What a sculpting (plastic) replay needs besides the force model: the relaxation's mass
+/// grid, the float field the force model reads (updated from the mass grid after each
+/// relaxation stage), the channel between the two, and the fixed per-tick budget.
+struct SculptContext {
+  engine::MassGrid* mass = nullptr;
+  engine::DensityField* mirror = nullptr;
+  SurfaceChangeChannel* channel = nullptr;
+  std::size_t relax_voxels_per_tick = 2000;
+  std::size_t mass_every_ticks = 10;  // exact total mass measured every N ticks
+};
+
+struct SculptSummary {
+  std::uint64_t plastic_events = 0;
+  std::uint64_t queue_overflows = 0;
+  std::uint64_t deleted_voxels = 0;
+  std::uint64_t relaxed_voxels = 0;
+  std::int64_t initial_mass_units = 0;
+  std::int64_t final_mass_units = 0;
+  std::size_t max_queue_depth = 0;
+  bool settled = false;
+};
+
 /// Called now and then with (ticks done, ticks total).
 using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 
 /// Runs every tick of `device` through `model` on the simulated clock, appending a row per
 /// tick to `session` (if not null). Does not close the session.
+///
+/// With `sculpt`, each tick runs, in this fixed order: the force stage (which may emit a
+/// surface change into the channel), the relaxation stage (all queued deletions, then at
+/// most relax_voxels_per_tick active voxels), and the publication of changed voxels into
+/// the field the force model reads. Results are bit-reproducible.
 ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
-                              const ProgressFn& progress = {});
+                              const ProgressFn& progress = {}, SculptContext* sculpt = nullptr,
+                              SculptSummary* sculpt_summary = nullptr);
 
 /// Percentile (0..100) of a sample by nearest rank; 0 for an empty sample.
 double percentile(std::vector<double> values, double pct);

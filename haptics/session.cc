@@ -74,6 +74,18 @@ SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
   const hid_t timing = H5Gcreate2(file_, "timing", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   ds_.compute_ns = create_column(timing, "compute_ns", H5T_STD_I64LE, 1, "ns");
   H5Gclose(timing);
+  const hid_t plastic = H5Gcreate2(file_, "plastic", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ds_.strain = create_column(plastic, "strain", H5T_IEEE_F64LE, 1, "1");
+  ds_.stress_pa = create_column(plastic, "stress_pa", H5T_IEEE_F64LE, 1, "Pa");
+  ds_.zone = create_column(plastic, "zone", H5T_STD_U8LE, 1, nullptr);
+  ds_.plastic_event = create_column(plastic, "event", H5T_STD_U8LE, 1, nullptr);
+  H5Gclose(plastic);
+  const hid_t relax = H5Gcreate2(file_, "relax", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ds_.queue_depth = create_column(relax, "queue_depth", H5T_STD_I64LE, 1, nullptr);
+  ds_.deleted_voxels = create_column(relax, "deleted_voxels", H5T_STD_I64LE, 1, nullptr);
+  ds_.relaxed_voxels = create_column(relax, "relaxed_voxels", H5T_STD_I64LE, 1, nullptr);
+  ds_.total_mass_units = create_column(relax, "total_mass_units", H5T_STD_I64LE, 1, nullptr);
+  H5Gclose(relax);
   set_attribute("complete", std::int64_t{0});
   buffer_.reserve(flush_every_);
 }
@@ -88,9 +100,10 @@ SessionWriter::~SessionWriter() {
 }
 
 void SessionWriter::close_datasets() {
-  for (hid_t d :
-       {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n, ds_.displacement_mm,
-        ds_.contact_area_mm2, ds_.contact, ds_.holding, ds_.clamped, ds_.compute_ns}) {
+  for (hid_t d : {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n,
+                  ds_.displacement_mm, ds_.contact_area_mm2, ds_.contact, ds_.holding, ds_.clamped,
+                  ds_.compute_ns, ds_.strain, ds_.stress_pa, ds_.zone, ds_.plastic_event,
+                  ds_.queue_depth, ds_.deleted_voxels, ds_.relaxed_voxels, ds_.total_mass_units}) {
     H5Dclose(d);
   }
 }
@@ -177,8 +190,19 @@ void SessionWriter::flush_rows() {
   byte_column(ds_.contact, [](const TickRecord& r) { return r.contact; });
   byte_column(ds_.holding, [](const TickRecord& r) { return r.holding; });
   byte_column(ds_.clamped, [](const TickRecord& r) { return r.clamped; });
-  for (std::size_t i = 0; i < n; ++i) ints[i] = buffer_[i].compute_ns;
-  write_column(ds_.compute_ns, H5T_NATIVE_INT64, ints.data(), 1);
+  auto int_column = [&](hid_t ds, auto field) {
+    for (std::size_t i = 0; i < n; ++i) ints[i] = field(buffer_[i]);
+    write_column(ds, H5T_NATIVE_INT64, ints.data(), 1);
+  };
+  int_column(ds_.compute_ns, [](const TickRecord& r) { return r.compute_ns; });
+  scalar_column(ds_.strain, [](const TickRecord& r) { return r.strain; });
+  scalar_column(ds_.stress_pa, [](const TickRecord& r) { return r.stress_measure_pa; });
+  byte_column(ds_.zone, [](const TickRecord& r) { return r.zone; });
+  byte_column(ds_.plastic_event, [](const TickRecord& r) { return r.plastic_event; });
+  int_column(ds_.queue_depth, [](const TickRecord& r) { return r.queue_depth; });
+  int_column(ds_.deleted_voxels, [](const TickRecord& r) { return r.deleted_voxels; });
+  int_column(ds_.relaxed_voxels, [](const TickRecord& r) { return r.relaxed_voxels; });
+  int_column(ds_.total_mass_units, [](const TickRecord& r) { return r.total_mass_units; });
   rows_written_ += n;
   buffer_.clear();
   H5Fflush(file_, H5F_SCOPE_LOCAL);

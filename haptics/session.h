@@ -29,6 +29,16 @@ struct TickRecord {
   std::uint8_t holding = 0;  // trace gap: tool held
   std::uint8_t clamped = 0;  // force magnitude limited to the device maximum
   std::int64_t compute_ns = 0;
+  // Plasticity (zeros when off).
+  double strain = 0.0;             // total strain of the contact
+  double stress_measure_pa = 0.0;  // s = E |u| / L
+  std::uint8_t zone = 0;           // engine::PlasticZone
+  std::uint8_t plastic_event = 0;  // a surface change was emitted this tick
+  // Relaxation (zeros when off).
+  std::int64_t queue_depth = 0;
+  std::int64_t deleted_voxels = 0;  // this tick
+  std::int64_t relaxed_voxels = 0;  // this tick
+  std::int64_t total_mass_units = 0;
 };
 
 class SessionWriter {
@@ -66,7 +76,8 @@ class SessionWriter {
   hid_t file_ = -1;
   struct Datasets {
     hid_t time_s, device_position_mm, tool_position_mm, force_n, displacement_mm, contact_area_mm2,
-        contact, holding, clamped, compute_ns;
+        contact, holding, clamped, compute_ns, strain, stress_pa, zone, plastic_event, queue_depth,
+        deleted_voxels, relaxed_voxels, total_mass_units;
   } ds_{};
   std::vector<TickRecord> buffer_;
   std::size_t rows_written_ = 0;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <sstream>
 
 #include "engine/errors.h"
@@ -22,6 +23,11 @@ struct ReplayFlags {
   TransformFlags transform;
   ForceFlags force;
   haptics::DeviceLimits limits;
+  // Sculpting.
+  bool plastic = false;
+  std::size_t relax_voxels_per_tick = 2000;
+  double relax_tolerance = 0.02;
+  std::string sculpt_out;
 };
 
 std::string vec_text(const Eigen::Vector3d& v) {
@@ -75,10 +81,27 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
     throw InputError("--ramp-in-s", "must be zero or positive");
   }
   check_output_path(f.output, "--output");
+  if (!f.sculpt_out.empty()) {
+    if (!f.plastic) throw InputError("--sculpt-out", "needs --plastic");
+    check_output_path(f.sculpt_out + ".vdb", "--sculpt-out");
+  }
+  if (!(f.relax_tolerance >= 0.0)) throw InputError("--relax-tolerance", "must be >= 0");
+  if (f.plastic) {
+    const auto& plastic = f.force.options.plastic;
+    if (!std::isfinite(plastic.yield_stress_pa) || plastic.yield_stress_pa <= 0.0) {
+      throw InputError("--yield-stress-pa", "must be positive");
+    }
+    if (!(plastic.elastoplastic_modulus_pa >= 0.0) ||
+        plastic.elastoplastic_modulus_pa >= f.force.options.material.youngs_modulus_pa) {
+      throw InputError("--elastoplastic-modulus-pa", "must lie in [0, E)");
+    }
+  }
+  engine::ToolForceOptions force_options = f.force.options;
+  force_options.plastic.enabled = f.plastic;
 
   const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
-  const engine::DensityField field = engine::load_volume(f.volume, mapping);
-  const engine::ToolForceModel model(field, f.force.options);
+  engine::DensityField field = engine::load_volume(f.volume, mapping);
+  const engine::ToolForceModel model(field, force_options);
   const haptics::DeviceTransform transform = f.transform.resolve(trace, field);
   haptics::ResampleOptions resample_options;
   resample_options.rate_hz = f.trace.rate_hz;
@@ -117,12 +140,36 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
     session.set_attribute("version_" + name, version);
   }
 
+  session.set_attribute("plastic", std::int64_t{f.plastic ? 1 : 0});
+  if (f.plastic) {
+    session.set_attribute("yield_stress_pa", force_options.plastic.yield_stress_pa);
+    session.set_attribute("elastoplastic_modulus_pa",
+                          force_options.plastic.elastoplastic_modulus_pa);
+    session.set_attribute("relax_voxels_per_tick",
+                          static_cast<std::int64_t>(f.relax_voxels_per_tick));
+    session.set_attribute("relax_tolerance", f.relax_tolerance);
+    session.set_attribute("normal_density_units", std::int64_t{engine::kNormalDensityUnits});
+  }
+  std::unique_ptr<engine::MassGrid> mass;
+  haptics::SurfaceChangeChannel channel;
+  haptics::SculptContext sculpt;
+  haptics::SculptSummary sculpted;
+  if (f.plastic) {
+    engine::RelaxOptions relax_options;
+    relax_options.tolerance = f.relax_tolerance;
+    mass = std::make_unique<engine::MassGrid>(field, relax_options);
+    sculpt.mass = mass.get();
+    sculpt.mirror = &field;
+    sculpt.channel = &channel;
+    sculpt.relax_voxels_per_tick = f.relax_voxels_per_tick;
+  }
   const bool show_progress = !f.quiet && isatty(STDERR_FILENO) && device.tick_count() >= 2000;
   haptics::ReplaySummary s;
   try {
     s = haptics::replay_lockstep(
         model, device, f.limits, &session,
-        show_progress ? haptics::ProgressFn(print_progress) : haptics::ProgressFn());
+        show_progress ? haptics::ProgressFn(print_progress) : haptics::ProgressFn(),
+        f.plastic ? &sculpt : nullptr, &sculpted);
   } catch (...) {
     session.abandon();
     throw;
@@ -135,7 +182,20 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   session.set_attribute("summary_trace_gaps", std::int64_t{s.trace_gaps});
   session.set_attribute("summary_compute_p50_us", s.compute_p50_us);
   session.set_attribute("summary_compute_p99_us", s.compute_p99_us);
+  if (f.plastic) {
+    session.set_attribute("summary_plastic_events",
+                          static_cast<std::int64_t>(sculpted.plastic_events));
+    session.set_attribute("summary_initial_mass_units", sculpted.initial_mass_units);
+    session.set_attribute("summary_final_mass_units", sculpted.final_mass_units);
+    session.set_attribute("summary_queue_overflows",
+                          static_cast<std::int64_t>(sculpted.queue_overflows));
+  }
   session.close();
+  if (!f.sculpt_out.empty()) {
+    const engine::DensityField sculpted_field = mass->to_density_field();
+    engine::write_vdb(sculpted_field, f.sculpt_out + ".vdb");
+    engine::write_nrrd(sculpted_field, f.sculpt_out + ".nrrd");
+  }
 
   std::printf("replayed %s on %s -> %s\n", f.trace_path.c_str(), f.volume.c_str(),
               f.output.c_str());
@@ -150,6 +210,25 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
               s.clamped_ticks, f.limits.max_force_n);
   std::printf("  compute per tick p50 %.2f us, p99 %.2f us, max %.2f us (%d surface samples)\n",
               s.compute_p50_us, s.compute_p99_us, s.compute_max_us, model.surface_sample_count());
+  if (f.plastic) {
+    std::printf(
+        "  plastic          %llu events, %llu voxels deleted, %llu relaxed, queue max %zu "
+        "(%llu overflows coalesced), %s\n",
+        static_cast<unsigned long long>(sculpted.plastic_events),
+        static_cast<unsigned long long>(sculpted.deleted_voxels),
+        static_cast<unsigned long long>(sculpted.relaxed_voxels), sculpted.max_queue_depth,
+        static_cast<unsigned long long>(sculpted.queue_overflows),
+        sculpted.settled ? "settled" : "still relaxing at the end");
+    std::printf(
+        "  mass             %lld -> %lld units (%s)\n",
+        static_cast<long long>(sculpted.initial_mass_units),
+        static_cast<long long>(sculpted.final_mass_units),
+        sculpted.initial_mass_units == sculpted.final_mass_units ? "conserved exactly" : "CHANGED");
+    if (!f.sculpt_out.empty()) {
+      std::printf("  sculpted volume  %s.vdb, %s.nrrd\n", f.sculpt_out.c_str(),
+                  f.sculpt_out.c_str());
+    }
+  }
   if (s.trace_gaps > 0) {
     std::printf("  trace gaps       %d (tool held for %.3f s)\n", s.trace_gaps, s.trace_held_s);
   }
@@ -180,6 +259,23 @@ void add_replay_command(CLI::App& app) {
   flags->trace.add_to(*cmd);
   flags->transform.add_to(*cmd);
   flags->force.add_to(*cmd);
+  cmd->add_flag("--plastic", flags->plastic,
+                "Sculpt: incremental plasticity, deletion and progressive relaxation");
+  cmd->add_option("--yield-stress-pa", flags->force.options.plastic.yield_stress_pa,
+                  "Yield stress sigma_f, Pa")
+      ->capture_default_str();
+  cmd->add_option("--elastoplastic-modulus-pa",
+                  flags->force.options.plastic.elastoplastic_modulus_pa,
+                  "Elasto-plastic slope E_ep in [0, E), Pa (> 0: linear hardening)")
+      ->capture_default_str();
+  cmd->add_option("--relax-voxels-per-tick", flags->relax_voxels_per_tick,
+                  "Relaxation budget per 1 kHz tick (lockstep)")
+      ->capture_default_str();
+  cmd->add_option("--relax-tolerance", flags->relax_tolerance,
+                  "Settled when no voxel exceeds normal density by more than this fraction")
+      ->capture_default_str();
+  cmd->add_option("--sculpt-out", flags->sculpt_out,
+                  "Write the sculpted volume as PREFIX.vdb and PREFIX.nrrd");
   cmd->callback([flags] { run_replay(*flags, command_line()); });
 }
 

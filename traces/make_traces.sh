@@ -36,3 +36,8 @@ while now <= t[-1]:
         out.write(f"{now*1000:.3f},{d[0]:.9f},{d[1]:.9f},{d[2]:.9f},{1 if now > 0.5 else 0}\n")
     now += random.uniform(0.002, 0.006)
 PY
+
+# Clay sculpting (replay with --plastic on the `block` generator): press 4 mm below the
+# face with the 8 mm tool, plough 40 mm along +x, lift.
+"$hapvox" trace make stroke -o "$here/clay_stroke.csv" \
+  --start-mm 44,64,72 --travel-mm 12 --speed-mm-s 10 --length-mm 40

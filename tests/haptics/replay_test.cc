@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 
 #include "engine/volume_io.h"
 #include "haptics/session.h"
@@ -147,6 +148,135 @@ TEST(Replay, PercentileByNearestRank) {
   EXPECT_EQ(percentile({5, 1, 3, 2, 4}, 50), 3.0);
   EXPECT_EQ(percentile({5, 1, 3, 2, 4}, 100), 5.0);
   EXPECT_EQ(percentile({5, 1, 3, 2, 4}, 0), 1.0);
+}
+
+}  // namespace
+}  // namespace hapvox::haptics
+
+namespace hapvox::haptics {
+namespace {
+
+struct SculptRun {
+  ReplaySummary summary;
+  SculptSummary sculpt;
+  std::vector<std::int64_t> mass_per_tick;
+};
+
+// A press-and-stroke into clay with plasticity, deletion and relaxation in lockstep.
+SculptRun sculpt_block(const std::string& session_path, engine::DensityField* out_field = nullptr,
+                       std::unique_ptr<engine::MassGrid>* out_mass = nullptr) {
+  engine::DensityField field = engine::generate_volume("block:dims=64");  // face z = 31.5
+  engine::ToolForceOptions options;
+  options.tool.diameter_mm = 10.0;
+  options.plastic.enabled = true;
+  options.plastic.yield_stress_pa = 20e3;
+  const engine::ToolForceModel model(field, options);
+  auto mass = std::make_unique<engine::MassGrid>(field);
+  SurfaceChangeChannel channel;
+  SculptContext context;
+  context.mass = mass.get();
+  context.mirror = &field;
+  context.channel = &channel;
+  context.mass_every_ticks = 1;
+  TraceMakeOptions make;
+  make.shape = TraceShape::kStroke;
+  make.start_mm = Vec3d(20.3, 31.6, 40.0);
+  make.travel_mm = 6.0;  // tool bottom 2.5 mm below the face (z = 31.5), top 7.5 mm above
+  make.speed_mm_s = 10.0;
+  make.stroke_length_mm = 24.0;
+  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  SculptRun run;
+  SessionWriter session(session_path);
+  run.summary = replay_lockstep(model, device, DeviceLimits{}, &session, {}, &context, &run.sculpt);
+  session.close();
+  for (double m : read_session_column(session_path, "/relax/total_mass_units")) {
+    run.mass_per_tick.push_back(static_cast<std::int64_t>(m));
+  }
+  if (out_mass != nullptr) *out_mass = std::move(mass);
+  if (out_field != nullptr) *out_field = field;
+  return run;
+}
+
+TEST(Sculpt, MassIsExactThroughALongSculptingReplay) {
+  const std::string dir = testing::scratch_dir();
+  const SculptRun run = sculpt_block(dir + "/s.h5");
+  EXPECT_GT(run.sculpt.plastic_events, 1000u);
+  EXPECT_GT(run.sculpt.deleted_voxels, 100u);
+  EXPECT_GT(run.sculpt.relaxed_voxels, 1000u);
+  EXPECT_EQ(run.sculpt.final_mass_units, run.sculpt.initial_mass_units);
+  EXPECT_EQ(run.sculpt.initial_mass_units, 64ll * 64 * 32 * engine::kNormalDensityUnits);
+  for (std::int64_t m : run.mass_per_tick) ASSERT_EQ(m, run.sculpt.initial_mass_units);
+  // Plastic events are recorded tick by tick.
+  const auto events = read_session_column(dir + "/s.h5", "/plastic/event");
+  EXPECT_EQ(static_cast<std::uint64_t>(std::count(events.begin(), events.end(), 1.0)),
+            run.sculpt.plastic_events);
+}
+
+TEST(Sculpt, LeavesAGrooveThatSettlesAndIsFeltAsAPermanentDent) {
+  const std::string dir = testing::scratch_dir();
+  engine::DensityField field = engine::generate_volume("block:dims=8");
+  std::unique_ptr<engine::MassGrid> mass;
+  sculpt_block(dir + "/s.h5", &field, &mass);
+  for (int round = 0; round < 200 && !mass->settled(); ++round) mass->relax(100000);
+  EXPECT_TRUE(mass->settled());
+  mass->publish_changes(field);
+  // Hole under the tool's path: empty at the groove's centre line, 1 mm below the face.
+  auto acc = field.grid().getConstAccessor();
+  for (int x = 32; x <= 40; x += 4) EXPECT_LT(acc.getValue(openvdb::Coord(x, 32, 30)), 0.05f) << x;
+  // Far from the groove the block is untouched.
+  EXPECT_NEAR(acc.getValue(openvdb::Coord(5, 5, 10)), 1.0f, 0.021f);
+  // An elastic probe now touches down deeper in the groove than on the flat.
+  engine::ToolForceOptions probe;
+  probe.tool.diameter_mm = 2.0;
+  const engine::ToolForceModel model(field, probe);
+  auto touch_height = [&](double x, double y) {
+    engine::ToolForceState state = model.make_state();
+    for (double z = 45.0; z > 0.0; z -= 0.01) {
+      model.step(Vec3d(x, y, z), state);
+      if (state.in_contact) return z;
+    }
+    return 0.0;
+  };
+  const double flat = touch_height(10.0, 10.0);
+  EXPECT_NEAR(flat, 31.5 + 1.0 + 0.5, 0.02);  // face + probe radius + half a voxel of ramp
+  EXPECT_LT(touch_height(36.0, 31.6), flat - 0.9);
+}
+
+TEST(Sculpt, LockstepSculptingIsBitIdentical) {
+  const std::string dir = testing::scratch_dir();
+  sculpt_block(dir + "/a.h5");
+  sculpt_block(dir + "/b.h5");
+  for (const std::string& dataset : read_session_info(dir + "/a.h5").datasets) {
+    if (dataset.rfind("/timing/", 0) == 0) continue;
+    const auto a = read_session_column(dir + "/a.h5", dataset);
+    const auto b = read_session_column(dir + "/b.h5", dataset);
+    ASSERT_EQ(a.size(), b.size()) << dataset;
+    EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(double))) << dataset;
+  }
+}
+
+TEST(SurfaceChannel, OverflowCoalescesIntoOneSweepAndLosesNothing) {
+  SurfaceChangeChannel channel;
+  engine::SurfaceChange change;
+  change.direction = Vec3d(0, 0, -1);
+  change.radius_mm = 2.0;
+  const unsigned extra = 10;
+  for (unsigned i = 0; i < SurfaceChangeChannel::kCapacity + extra; ++i) {
+    change.from_mm = change.position_mm = Vec3d(0, 0, -0.01 * i);
+    channel.push(change);
+  }
+  EXPECT_EQ(channel.overflows(), extra);
+  EXPECT_TRUE(channel.has_pending());
+  engine::SurfaceChange got;
+  unsigned popped = 0;
+  while (channel.pop(got)) ++popped;
+  EXPECT_EQ(popped, SurfaceChangeChannel::kCapacity);
+  ASSERT_TRUE(channel.flush());
+  ASSERT_TRUE(channel.pop(got));
+  // The coalesced change sweeps from the first overflowed position to the last one.
+  EXPECT_EQ(got.from_mm.z(), -0.01 * SurfaceChangeChannel::kCapacity);
+  EXPECT_EQ(got.position_mm.z(), -0.01 * (SurfaceChangeChannel::kCapacity + extra - 1));
+  EXPECT_FALSE(channel.pop(got));
 }
 
 }  // namespace

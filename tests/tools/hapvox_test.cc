@@ -269,6 +269,30 @@ TEST(HapvoxCli, FailedRunLeavesAnExistingSessionUntouched) {
   EXPECT_EQ(slurp(out), "previous results");
 }
 
+TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
+  const std::string dir = scratch_dir();
+  const Result r =
+      run("replay " + source_path("traces/clay_stroke.csv") +
+          " --volume block:dims=96 --plastic -o " + dir + "/clay.h5 --sculpt-out " + dir + "/clay");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("conserved exactly"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir + "/clay.vdb"));
+  EXPECT_TRUE(fs::exists(dir + "/clay.nrrd"));
+  // The sculpted volume loads back with the block's geometry.
+  const Result info = run("info " + dir + "/clay.nrrd");
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("96 x 96 x 96 voxels"), std::string::npos) << info.out;
+  expect_input_error(
+      "replay " + press_trace() + " --volume block -o " + dir + "/x.h5 --sculpt-out " + dir + "/y",
+      "--sculpt-out: needs --plastic");
+  expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
+                         "/x.h5 --plastic --yield-stress-pa -1",
+                     "--yield-stress-pa: must be positive");
+  expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
+                         "/x.h5 --plastic -E 1e5 --elastoplastic-modulus-pa 2e5",
+                     "--elastoplastic-modulus-pa: must lie in [0, E)");
+}
+
 TEST(HapvoxCli, BenchForcePrintsTheTable) {
   const Result r = run("bench force --sizes 64 --diameters 16 --min-time-s 0.01 --repetitions 1");
   ASSERT_EQ(r.exit_code, 0) << r.err;

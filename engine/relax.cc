@@ -1,0 +1,256 @@
+#include "engine/relax.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/check.h"
+
+namespace hapvox::engine {
+namespace {
+
+double distance_to_segment(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
+  const Vec3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * ab)).norm();
+}
+
+openvdb::Coord to_coord(const Vec3d& v) {
+  return openvdb::Coord(static_cast<int>(std::lround(v.x())), static_cast<int>(std::lround(v.y())),
+                        static_cast<int>(std::lround(v.z())));
+}
+
+}  // namespace
+
+MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
+    : grid_(openvdb::Int32Grid::create(0)),
+      accessor_(grid_->getAccessor()),
+      voxel_size_mm_(field.voxel_size_mm()),
+      origin_mm_(field.origin_mm()),
+      dims_(field.dims()),
+      threshold_units_(static_cast<std::int32_t>(
+          std::floor(kNormalDensityUnits * (1.0 + std::max(0.0, options.tolerance))))) {
+  for (auto it = field.grid().cbeginValueOn(); it; ++it) {
+    const auto units = static_cast<std::int32_t>(std::lround(*it * kNormalDensityUnits));
+    if (units <= 0) continue;
+    if (it.isVoxelValue()) {
+      accessor_.setValueOn(it.getCoord(), units);
+    } else {
+      openvdb::CoordBBox box;
+      it.getBoundingBox(box);
+      grid_->tree().fill(box, units, true);
+    }
+  }
+  grid_->tree().voxelizeActiveTiles();
+  accessor_.clear();
+}
+
+std::int64_t MassGrid::total_mass_units() const {
+  std::int64_t sum = 0;
+  for (auto it = grid_->cbeginValueOn(); it; ++it) {
+    sum += static_cast<std::int64_t>(*it) * static_cast<std::int64_t>(it.getVoxelCount());
+  }
+  return sum;
+}
+
+void MassGrid::set(const openvdb::Coord& ijk, std::int32_t units) {
+  HAPVOX_CHECK_GE(units, 0);
+  if (units == 0) {
+    accessor_.setValueOff(ijk, 0);
+  } else {
+    accessor_.setValueOn(ijk, units);
+  }
+  changed_.push_back(ijk);
+}
+
+void MassGrid::activate_if_over(const openvdb::Coord& ijk, std::int32_t units) {
+  if (units > threshold_units_) queue_.push(Entry{units, ijk});
+}
+
+bool MassGrid::inside_tool(const openvdb::Coord& ijk) const {
+  if (!has_tool_) return false;
+  const Vec3d p = Vec3d(ijk.x(), ijk.y(), ijk.z()).cwiseProduct(voxel_size_mm_);
+  return distance_to_segment(p, tool_from_index_.cwiseProduct(voxel_size_mm_),
+                             tool_to_index_.cwiseProduct(voxel_size_mm_)) < tool_radius_mm_;
+}
+
+std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
+  const double radius = change.radius_mm;
+  HAPVOX_CHECK_GT(radius, 0.0);
+  // Work in index space scaled back to mm per axis (voxels may be anisotropic).
+  tool_from_index_ = (change.from_mm - origin_mm_).cwiseQuotient(voxel_size_mm_);
+  tool_to_index_ = (change.position_mm - origin_mm_).cwiseQuotient(voxel_size_mm_);
+  tool_radius_mm_ = radius;
+  has_tool_ = true;
+  const Vec3d a = change.from_mm - origin_mm_;
+  const Vec3d b = change.position_mm - origin_mm_;
+  const Vec3d dir = change.direction.normalized();
+  const double step_mm = 0.5 * voxel_size_mm_.minCoeff();
+  const Vec3d lo = (a.cwiseMin(b) - Vec3d::Constant(radius)).cwiseQuotient(voxel_size_mm_);
+  const Vec3d hi = (a.cwiseMax(b) + Vec3d::Constant(radius)).cwiseQuotient(voxel_size_mm_);
+  std::size_t emptied = 0;
+  for (int i = static_cast<int>(std::floor(lo.x())); i <= static_cast<int>(std::ceil(hi.x()));
+       ++i) {
+    for (int j = static_cast<int>(std::floor(lo.y())); j <= static_cast<int>(std::ceil(hi.y()));
+         ++j) {
+      for (int k = static_cast<int>(std::floor(lo.z())); k <= static_cast<int>(std::ceil(hi.z()));
+           ++k) {
+        const openvdb::Coord source(i, j, k);
+        const Vec3d p = Vec3d(i, j, k).cwiseProduct(voxel_size_mm_);
+        if (distance_to_segment(p, a, b) >= radius) continue;
+        const std::int32_t units = accessor_.getValue(source);
+        if (units <= 0) continue;
+        // March along the push until the voxel centre leaves the swept sphere.
+        Vec3d q = p;
+        openvdb::Coord target = source;
+        for (int guard = 0; guard < 100000; ++guard) {
+          q += step_mm * dir;
+          target = to_coord(q.cwiseQuotient(voxel_size_mm_));
+          const Vec3d centre =
+              Vec3d(target.x(), target.y(), target.z()).cwiseProduct(voxel_size_mm_);
+          if (distance_to_segment(centre, a, b) >= radius) break;
+        }
+        const std::int32_t target_units = accessor_.getValue(target) + units;
+        set(source, 0);
+        set(target, target_units);
+        activate_if_over(target, target_units);
+        work_.moved_units += static_cast<std::uint64_t>(units);
+        ++emptied;
+      }
+    }
+  }
+  work_.deleted_voxels += emptied;
+  return emptied;
+}
+
+void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
+  const std::int64_t excess = static_cast<std::int64_t>(units) - kNormalDensityUnits;
+  if (excess <= 0) return;
+  openvdb::Coord neighbours[26];
+  std::int32_t values[26];
+  int count = 0;
+  std::int64_t sum = units;
+  for (int dz = -1; dz <= 1; ++dz) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dx == 0 && dy == 0 && dz == 0) continue;
+        const openvdb::Coord n = v.offsetBy(dx, dy, dz);
+        if (inside_tool(n)) continue;
+        neighbours[count] = n;
+        values[count] = accessor_.getValue(n);
+        sum += values[count];
+        ++count;
+      }
+    }
+  }
+  if (count == 0) return;  // walled in by the tool: wait until it moves
+  const std::int64_t mean = sum / (count + 1);
+  std::int64_t added[26] = {};
+  std::int64_t given = 0;
+  // Material first flows into material (neighbours holding some), and only what they
+  // cannot take goes into empty voxels: clay spreads through itself before it grows
+  // into the air, which keeps grooves open and surfaces free of haze.
+  for (int pass = 0; pass < 2 && given < excess; ++pass) {
+    std::int64_t room[26];
+    std::int64_t total_room = 0;
+    for (int n = 0; n < count; ++n) {
+      const bool eligible = pass == 0 ? values[n] > 0 : values[n] == 0;
+      room[n] = eligible ? std::max<std::int64_t>(0, mean - values[n] - added[n]) : 0;
+      total_room += room[n];
+    }
+    const std::int64_t give = std::min(excess - given, total_room);
+    if (give <= 0) continue;
+    std::int64_t pass_given = 0;
+    std::int64_t share[26];
+    for (int n = 0; n < count; ++n) {
+      share[n] = give * room[n] / total_room;
+      pass_given += share[n];
+    }
+    for (int n = 0; n < count && pass_given < give; ++n) {
+      if (share[n] < room[n]) {
+        ++share[n];
+        ++pass_given;
+      }
+    }
+    HAPVOX_CHECK_EQ(pass_given, give);
+    for (int n = 0; n < count; ++n) added[n] += share[n];
+    given += give;
+  }
+  const std::int64_t give = given;
+  // No room below the mean: spread the rest evenly so it diffuses outwards.
+  const std::int64_t rest = excess - give;
+  for (int n = 0; n < count; ++n) added[n] += rest / count;
+  for (int n = 0; n < rest % count; ++n) ++added[n];
+  set(v, kNormalDensityUnits);
+  for (int n = 0; n < count; ++n) {
+    if (added[n] == 0) continue;
+    const std::int64_t updated = values[n] + added[n];
+    HAPVOX_CHECK_LE(updated, std::int64_t{INT32_MAX});
+    set(neighbours[n], static_cast<std::int32_t>(updated));
+    activate_if_over(neighbours[n], static_cast<std::int32_t>(updated));
+  }
+  work_.moved_units += static_cast<std::uint64_t>(excess);
+}
+
+std::size_t MassGrid::relax(std::size_t max_voxels) {
+  std::size_t done = 0;
+  while (done < max_voxels && !queue_.empty()) {
+    const Entry top = queue_.top();
+    queue_.pop();
+    const std::int32_t current = accessor_.getValue(top.ijk);
+    if (current != top.units || current <= threshold_units_) continue;  // stale entry
+    relax_voxel(top.ijk, current);
+    ++done;
+  }
+  work_.relaxed_voxels += done;
+  return done;
+}
+
+bool MassGrid::settled() {
+  while (!queue_.empty()) {
+    const Entry& top = queue_.top();
+    const std::int32_t current = accessor_.getValue(top.ijk);
+    if (current == top.units && current > threshold_units_) return false;
+    queue_.pop();
+  }
+  return true;
+}
+
+double MassGrid::max_density() const {
+  std::int32_t best = 0;
+  for (auto it = grid_->cbeginValueOn(); it; ++it) best = std::max(best, *it);
+  return static_cast<double>(best) / kNormalDensityUnits;
+}
+
+std::size_t MassGrid::publish_changes(DensityField& mirror) {
+  auto out = mirror.mutable_grid().getAccessor();
+  for (const openvdb::Coord& ijk : changed_) {
+    const std::int32_t units = accessor_.getValue(ijk);
+    if (units == 0) {
+      out.setValueOff(ijk, 0.0f);
+    } else {
+      out.setValueOn(ijk, static_cast<float>(units) / kNormalDensityUnits);
+    }
+  }
+  const std::size_t count = changed_.size();
+  changed_.clear();
+  return count;
+}
+
+DensityField MassGrid::to_density_field() const {
+  auto grid = openvdb::FloatGrid::create(0.0f);
+  auto out = grid->getAccessor();
+  for (auto it = grid_->cbeginValueOn(); it; ++it) {
+    const float rho = static_cast<float>(*it) / kNormalDensityUnits;
+    if (it.isVoxelValue()) {
+      out.setValueOn(it.getCoord(), rho);
+    } else {
+      openvdb::CoordBBox box;
+      it.getBoundingBox(box);
+      grid->tree().fill(box, rho, true);
+    }
+  }
+  return DensityField(grid, voxel_size_mm_, origin_mm_, dims_);
+}
+
+}  // namespace hapvox::engine

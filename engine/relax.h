@@ -1,0 +1,108 @@
+#pragma once
+// Deletion and progressive relaxation (Prados et al., "Volumetric plastic deformation",
+// section 4.3) on an exact integer copy of the density.
+//
+// Density is stored in fixed point: kNormalDensityUnits units are the material's normal
+// density. Every operation moves whole units from voxel to voxel, so the total mass is an
+// exact integer invariant: total_mass_units() is equal bit for bit before and after any
+// sequence of deletions and relaxation steps.
+//
+//   1. apply_deletion(c): the tool's sphere at c (swept from c.from_mm for coalesced
+//      changes) is emptied; each voxel's mass moves along c.direction to the first voxel
+//      outside the sphere. Highest priority: the caller applies all queued deletions first.
+//   2. relax(budget): take the active voxel of highest density; compute the mean of its
+//      3x3x3 neighbourhood; set it back to the normal density; give the excess to the
+//      neighbours below the mean, raising them at most to the mean (shares proportional to
+//      their room, remainders by a fixed order); if they cannot take it all, the rest is
+//      spread evenly over the neighbourhood; every voxel left above the normal density
+//      (plus the tolerance) is queued. Voxels inside the tool never receive material.
+//
+// Not thread-safe: one relaxation thread (or the lockstep loop) owns a MassGrid.
+
+#include <openvdb/openvdb.h>
+
+#include <cstdint>
+#include <queue>
+#include <vector>
+
+#include "engine/density_field.h"
+#include "engine/tool_force.h"
+
+namespace hapvox::engine {
+
+inline constexpr std::int32_t kNormalDensityUnits = 1 << 16;
+
+struct RelaxOptions {
+  /// Settled when no voxel exceeds the normal density by more than this fraction.
+  double tolerance = 0.02;
+};
+
+struct RelaxWork {
+  std::uint64_t deleted_voxels = 0;  // voxels emptied by deletions
+  std::uint64_t relaxed_voxels = 0;  // active voxels processed
+  std::uint64_t moved_units = 0;     // mass moved, fixed-point units
+};
+
+class MassGrid {
+ public:
+  /// Fixed-point copy of `field`: q = round(rho * kNormalDensityUnits).
+  MassGrid(const DensityField& field, const RelaxOptions& options = {});
+
+  /// Exact total mass in fixed-point units.
+  std::int64_t total_mass_units() const;
+
+  /// Paper step 1. Returns the number of voxels emptied.
+  std::size_t apply_deletion(const SurfaceChange& change);
+
+  /// Paper step 2: processes up to `max_voxels` active voxels. Returns how many it did.
+  std::size_t relax(std::size_t max_voxels);
+
+  /// True when no voxel exceeds the normal density plus the tolerance.
+  bool settled();
+  /// Active voxels waiting (including stale queue entries; an upper bound).
+  std::size_t queued() const { return queue_.size(); }
+  /// Largest density in the grid, in units of the normal density.
+  double max_density() const;
+
+  /// Writes every voxel changed since the last call into `mirror` (as rho = q / units;
+  /// 0 becomes inactive background) and forgets them. Returns how many it wrote.
+  std::size_t publish_changes(DensityField& mirror);
+
+  const RelaxWork& work() const { return work_; }
+  const openvdb::Int32Grid& grid() const { return *grid_; }
+  /// The density as a float field (for writing .vdb / NRRD), same geometry as the input.
+  DensityField to_density_field() const;
+
+ private:
+  struct Entry {
+    std::int32_t units;
+    openvdb::Coord ijk;
+    bool operator<(const Entry& other) const {
+      // Highest density first; ties in a fixed coordinate order for determinism.
+      if (units != other.units) return units < other.units;
+      return other.ijk < ijk;
+    }
+  };
+
+  void set(const openvdb::Coord& ijk, std::int32_t units);
+  void activate_if_over(const openvdb::Coord& ijk, std::int32_t units);
+  bool inside_tool(const openvdb::Coord& ijk) const;
+  void relax_voxel(const openvdb::Coord& ijk, std::int32_t units);
+
+  openvdb::Int32Grid::Ptr grid_;
+  openvdb::Int32Grid::Accessor accessor_;
+  Vec3d voxel_size_mm_;
+  Vec3d origin_mm_;
+  Vec3i dims_;
+  std::int32_t threshold_units_;
+  std::priority_queue<Entry> queue_;
+  std::vector<openvdb::Coord> changed_;
+  RelaxWork work_;
+  // The tool's last swept sphere (index space), which relaxation must not fill.
+  bool has_tool_ = false;
+  Vec3d tool_from_index_ = Vec3d::Zero();
+  Vec3d tool_to_index_ = Vec3d::Zero();
+  double tool_radius_mm_ = 0.0;
+};
+
+}  // namespace hapvox::engine

@@ -1,0 +1,111 @@
+#include "engine/relax.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/volume_io.h"
+
+namespace hapvox::engine {
+namespace {
+
+SurfaceChange change_at(const Vec3d& p, const Vec3d& dir, double radius_mm) {
+  SurfaceChange c;
+  c.from_mm = p;
+  c.position_mm = p;
+  c.direction = dir.normalized();
+  c.radius_mm = radius_mm;
+  return c;
+}
+
+TEST(Relax, DeletionEmptiesTheToolAndPushesMaterialAhead) {
+  const DensityField field = generate_volume("block:dims=48");  // face at z = 23.5
+  MassGrid mass(field);
+  const std::int64_t before = mass.total_mass_units();
+  const Vec3d centre(24.2, 23.8, 22.0);  // tool sunk 1.5 mm + its radius into the face
+  mass.apply_deletion(change_at(centre, Vec3d(0, 0, -1), 3.0));
+  EXPECT_EQ(mass.total_mass_units(), before);
+  auto acc = mass.grid().getConstAccessor();
+  int inside = 0;
+  for (int i = 18; i <= 30; ++i)
+    for (int j = 18; j <= 30; ++j)
+      for (int k = 16; k <= 28; ++k)
+        if ((Vec3d(i, j, k) - centre).norm() < 3.0) {
+          EXPECT_EQ(acc.getValue({i, j, k}), 0) << i << "," << j << "," << k;
+          ++inside;
+        }
+  EXPECT_GT(inside, 50);
+  // Straight below the tool the material is compressed above its normal density.
+  EXPECT_GT(std::max({acc.getValue({24, 24, 17}), acc.getValue({24, 24, 18}),
+                      acc.getValue({24, 24, 19})}),
+            kNormalDensityUnits);
+  EXPECT_GT(mass.max_density(), 1.5);
+}
+
+TEST(Relax, MassIsConservedBitForBitOverThousandsOfEvents) {
+  const DensityField field = generate_volume("block:dims=64");
+  MassGrid mass(field);
+  const std::int64_t before = mass.total_mass_units();
+  // A tool wandering over and into the surface, pushing in changing directions.
+  for (int event = 0; event < 3000; ++event) {
+    const double t = event * 0.01;
+    const Vec3d p(32 + 12 * std::sin(t), 32 + 12 * std::cos(1.3 * t), 30.0 - 0.002 * event);
+    const Vec3d dir(std::sin(3 * t), std::cos(2 * t), -2.0);
+    mass.apply_deletion(change_at(p, dir, 2.5));
+    mass.relax(50);
+  }
+  EXPECT_EQ(mass.total_mass_units(), before);
+  mass.relax(20000);
+  EXPECT_EQ(mass.total_mass_units(), before);
+  EXPECT_GT(mass.work().deleted_voxels, 5000u);
+  EXPECT_GT(mass.work().relaxed_voxels, 10000u);
+}
+
+TEST(Relax, SettlesBackToTheNormalDensity) {
+  const DensityField field = generate_volume("block:dims=48");
+  RelaxOptions options;
+  options.tolerance = 0.02;
+  MassGrid mass(field, options);
+  mass.apply_deletion(change_at(Vec3d(24, 24, 22), Vec3d(0, 0, -1), 4.0));
+  ASSERT_FALSE(mass.settled());
+  std::size_t processed = 0;
+  for (int round = 0; round < 1000 && !mass.settled(); ++round) processed += mass.relax(10000);
+  EXPECT_TRUE(mass.settled()) << "after " << processed << " voxels";
+  EXPECT_LE(mass.max_density(), 1.02 + 1e-9);
+}
+
+TEST(Relax, PublishedMirrorMatchesTheMassGrid) {
+  DensityField mirror = generate_volume("block:dims=32");
+  MassGrid mass(mirror);
+  mass.apply_deletion(change_at(Vec3d(16, 16, 15), Vec3d(0.3, 0, -1), 3.0));
+  mass.relax(500);
+  EXPECT_GT(mass.publish_changes(mirror), 0u);
+  auto m = mass.grid().getConstAccessor();
+  auto f = mirror.grid().getConstAccessor();
+  for (int i = 0; i < 32; ++i)
+    for (int j = 0; j < 32; ++j)
+      for (int k = 0; k < 32; ++k) {
+        const openvdb::Coord c(i, j, k);
+        ASSERT_EQ(f.getValue(c), static_cast<float>(m.getValue(c)) / kNormalDensityUnits) << c;
+        ASSERT_EQ(f.isValueOn(c), m.getValue(c) != 0) << c;
+      }
+  EXPECT_EQ(mass.publish_changes(mirror), 0u);  // nothing new
+}
+
+TEST(Relax, RunsAreDeterministic) {
+  auto run = [] {
+    MassGrid mass(generate_volume("block:dims=32"));
+    for (int event = 0; event < 200; ++event) {
+      mass.apply_deletion(change_at(Vec3d(10 + 0.05 * event, 16, 15), Vec3d(1, 0, -1), 2.0));
+      mass.relax(30);
+    }
+    std::vector<std::int32_t> values;
+    for (auto it = mass.grid().cbeginValueOn(); it; ++it) values.push_back(*it);
+    return values;
+  };
+  EXPECT_EQ(run(), run());
+}
+
+}  // namespace
+}  // namespace hapvox::engine
