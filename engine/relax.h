@@ -68,6 +68,17 @@ class MassGrid {
   /// 0 becomes inactive background) and forgets them. Returns how many it wrote.
   std::size_t publish_changes(DensityField& mirror);
 
+  /// Moves the list of voxels changed since the last call into `out` (cleared first).
+  void take_changes(std::vector<openvdb::Coord>& out) {
+    out.clear();
+    out.swap(changed_);
+  }
+  bool has_changes() const { return !changed_.empty(); }
+  /// Density of one voxel as the float the force model reads.
+  float density(const openvdb::Coord& ijk) {
+    return static_cast<float>(accessor_.getValue(ijk)) / kNormalDensityUnits;
+  }
+
   const RelaxWork& work() const { return work_; }
   const openvdb::Int32Grid& grid() const { return *grid_; }
   /// The density as a float field (for writing .vdb / NRRD), same geometry as the input.

@@ -27,7 +27,10 @@ int fibonacci_sample_count(double radius_mm, double spacing_mm, int min_count, i
 }  // namespace
 
 ToolForceState::ToolForceState(const DensityField& field)
-    : accessor(field.grid().getConstAccessor()) {}
+    : accessors{field.grid().getConstAccessor(), field.grid().getConstAccessor()} {}
+
+ToolForceState::ToolForceState(const DensityField& buffer0, const DensityField& buffer1)
+    : accessors{buffer0.grid().getConstAccessor(), buffer1.grid().getConstAccessor()} {}
 
 ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions& options)
     : field_(&field), options_(options) {
@@ -133,8 +136,8 @@ float ToolForceModel::sample_density(const Eigen::Vector3f& q, ToolForceState& s
     const openvdb::Coord origin(ix & ~kLeafMask, iy & ~kLeafMask, iz & ~kLeafMask);
     if (origin != s.cached_leaf_origin) {
       s.cached_leaf_origin = origin;
-      s.cached_leaf = s.accessor.probeConstLeaf(origin);
-      if (s.cached_leaf == nullptr) s.cached_tile_value = s.accessor.getValue(origin);
+      s.cached_leaf = s.accessor().probeConstLeaf(origin);
+      if (s.cached_leaf == nullptr) s.cached_tile_value = s.accessor().getValue(origin);
     }
     if (s.cached_leaf == nullptr) return s.cached_tile_value;  // a tile: constant inside
     const float* v = s.cached_leaf->buffer().data() + ((lx << 6) | (ly << 3) | lz);
@@ -148,7 +151,7 @@ float ToolForceModel::sample_density(const Eigen::Vector3f& q, ToolForceState& s
     v111 = v[73];
   } else {
     const openvdb::Coord c(ix, iy, iz);
-    auto& a = s.accessor;
+    auto& a = s.accessor();
     v000 = a.getValue(c);
     v001 = a.getValue(c.offsetBy(0, 0, 1));
     v010 = a.getValue(c.offsetBy(0, 1, 0));
@@ -354,7 +357,7 @@ ContactIntegral ToolForceModel::integrate_contact_naive(const Vec3d& center_mm,
   for (int i = lo.x(); i <= hi.x(); ++i) {
     for (int j = lo.y(); j <= hi.y(); ++j) {
       for (int k = lo.z(); k <= hi.z(); ++k) {
-        const float rho = s.accessor.getValue(openvdb::Coord(i, j, k));
+        const float rho = s.accessor().getValue(openvdb::Coord(i, j, k));
         const Vec3d r = (Vec3d(i, j, k) - c).cwiseProduct(voxel);
         const double dist = r.norm();
         if (rho > 0.0f && std::abs(dist - radius_mm) <= 0.5 * shell_mm && dist > 0.0) {

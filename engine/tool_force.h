@@ -20,6 +20,7 @@
 #include <openvdb/openvdb.h>
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -82,6 +83,8 @@ struct ContactIntegral {
 /// Per-thread mutable state of the elastic force model.
 struct ToolForceState {
   explicit ToolForceState(const DensityField& field);
+  /// For a field kept in two buffers with the same geometry (buffer 0, buffer 1).
+  ToolForceState(const DensityField& buffer0, const DensityField& buffer1);
 
   // Carried between steps.
   bool has_position = false;
@@ -111,18 +114,28 @@ struct ToolForceState {
   std::uint64_t started_in_contact = 0;
   std::uint64_t nonfinite_forces = 0;
 
-  // Read cache: one accessor per thread, plus the last leaf it found.
-  openvdb::FloatGrid::ConstAccessor accessor;
+  // Read cache: accessors owned by this thread (one per field buffer it may read, made
+  // before the loop starts: making one later would allocate), plus the last leaf found.
+  std::array<openvdb::FloatGrid::ConstAccessor, 2> accessors;
+  int active_buffer = 0;
   const openvdb::FloatTree::LeafNodeType* cached_leaf = nullptr;
   openvdb::Coord cached_leaf_origin{openvdb::Coord::max()};
   float cached_tile_value = 0.0f;
 
   /// Call after the field this state reads has been changed (lockstep only).
   void invalidate_cache() {
-    accessor.clear();
+    accessors[active_buffer].clear();
     cached_leaf = nullptr;
     cached_leaf_origin = openvdb::Coord::max();
   }
+  /// Reads buffer 0 or 1 from now on (double-buffered fields in realtime runs). Does not
+  /// allocate.
+  void read_from(int buffer) {
+    if (buffer == active_buffer) return;
+    active_buffer = buffer;
+    invalidate_cache();
+  }
+  openvdb::FloatGrid::ConstAccessor& accessor() { return accessors[active_buffer]; }
 };
 
 class ToolForceModel {
@@ -132,6 +145,10 @@ class ToolForceModel {
   ToolForceModel(const DensityField& field, const ToolForceOptions& options);
 
   ToolForceState make_state() const { return ToolForceState(*field_); }
+  /// A state that can read `field()` as buffer 0 and `second` (same geometry) as buffer 1.
+  ToolForceState make_state(const DensityField& second) const {
+    return ToolForceState(*field_, second);
+  }
 
   /// One force tick at tool centre `tool_center_mm` (volume space). Fills state's results.
   void step(const Vec3d& tool_center_mm, ToolForceState& state) const;

@@ -64,6 +64,8 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
     row.device_position_mm = device.device_position_mm(tick);
     row.tool_position_mm = device.tool_position_mm(tick);
     row.holding = device.holding(tick) ? 1 : 0;
+    row.scheduled_ns = static_cast<std::int64_t>(std::llround(1e9 * (row.time_s - t0)));
+    row.start_ns = row.scheduled_ns;
 
     const auto start = Clock::now();
     model.step(row.tool_position_mm, state);

@@ -73,6 +73,8 @@ SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
   // Wall-clock measurements live under /timing: the only data that differ between runs.
   const hid_t timing = H5Gcreate2(file_, "timing", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   ds_.compute_ns = create_column(timing, "compute_ns", H5T_STD_I64LE, 1, "ns");
+  ds_.scheduled_ns = create_column(timing, "scheduled_ns", H5T_STD_I64LE, 1, "ns");
+  ds_.start_ns = create_column(timing, "start_ns", H5T_STD_I64LE, 1, "ns");
   H5Gclose(timing);
   const hid_t plastic = H5Gcreate2(file_, "plastic", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   ds_.strain = create_column(plastic, "strain", H5T_IEEE_F64LE, 1, "1");
@@ -100,10 +102,26 @@ SessionWriter::~SessionWriter() {
 }
 
 void SessionWriter::close_datasets() {
-  for (hid_t d : {ds_.time_s, ds_.device_position_mm, ds_.tool_position_mm, ds_.force_n,
-                  ds_.displacement_mm, ds_.contact_area_mm2, ds_.contact, ds_.holding, ds_.clamped,
-                  ds_.compute_ns, ds_.strain, ds_.stress_pa, ds_.zone, ds_.plastic_event,
-                  ds_.queue_depth, ds_.deleted_voxels, ds_.relaxed_voxels, ds_.total_mass_units}) {
+  for (hid_t d : {ds_.time_s,
+                  ds_.device_position_mm,
+                  ds_.tool_position_mm,
+                  ds_.force_n,
+                  ds_.displacement_mm,
+                  ds_.contact_area_mm2,
+                  ds_.contact,
+                  ds_.holding,
+                  ds_.clamped,
+                  ds_.compute_ns,
+                  ds_.strain,
+                  ds_.stress_pa,
+                  ds_.zone,
+                  ds_.plastic_event,
+                  ds_.queue_depth,
+                  ds_.deleted_voxels,
+                  ds_.relaxed_voxels,
+                  ds_.total_mass_units,
+                  ds_.scheduled_ns,
+                  ds_.start_ns}) {
     H5Dclose(d);
   }
 }
@@ -195,6 +213,8 @@ void SessionWriter::flush_rows() {
     write_column(ds, H5T_NATIVE_INT64, ints.data(), 1);
   };
   int_column(ds_.compute_ns, [](const TickRecord& r) { return r.compute_ns; });
+  int_column(ds_.scheduled_ns, [](const TickRecord& r) { return r.scheduled_ns; });
+  int_column(ds_.start_ns, [](const TickRecord& r) { return r.start_ns; });
   scalar_column(ds_.strain, [](const TickRecord& r) { return r.strain; });
   scalar_column(ds_.stress_pa, [](const TickRecord& r) { return r.stress_measure_pa; });
   byte_column(ds_.zone, [](const TickRecord& r) { return r.zone; });

@@ -29,6 +29,8 @@ struct TickRecord {
   std::uint8_t holding = 0;  // trace gap: tool held
   std::uint8_t clamped = 0;  // force magnitude limited to the device maximum
   std::int64_t compute_ns = 0;
+  std::int64_t scheduled_ns = 0;  // deadline of the tick, from the start of the run
+  std::int64_t start_ns = 0;      // when its computation started (lockstep: = scheduled)
   // Plasticity (zeros when off).
   double strain = 0.0;             // total strain of the contact
   double stress_measure_pa = 0.0;  // s = E |u| / L
@@ -77,7 +79,7 @@ class SessionWriter {
   struct Datasets {
     hid_t time_s, device_position_mm, tool_position_mm, force_n, displacement_mm, contact_area_mm2,
         contact, holding, clamped, compute_ns, strain, stress_pa, zone, plastic_event, queue_depth,
-        deleted_voxels, relaxed_voxels, total_mass_units;
+        deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns;
   } ds_{};
   std::vector<TickRecord> buffer_;
   std::size_t rows_written_ = 0;

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "engine/errors.h"
+#include "haptics/realtime.h"
 #include "tools/cli.h"
 
 namespace hapvox::cli {
@@ -25,6 +26,7 @@ struct ReplayFlags {
   haptics::DeviceLimits limits;
   // Sculpting.
   bool plastic = false;
+  bool realtime = false;
   std::size_t relax_voxels_per_tick = 2000;
   double relax_tolerance = 0.02;
   std::string sculpt_out;
@@ -101,7 +103,10 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
 
   const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
   engine::DensityField field = engine::load_volume(f.volume, mapping);
-  const engine::ToolForceModel model(field, force_options);
+  // Realtime sculpting: the force thread reads one of two buffers the relaxation updates.
+  std::unique_ptr<haptics::DoubleBufferedField> buffers;
+  if (f.realtime && f.plastic) buffers = std::make_unique<haptics::DoubleBufferedField>(field);
+  const engine::ToolForceModel model(buffers ? buffers->buffer(0) : field, force_options);
   const haptics::DeviceTransform transform = f.transform.resolve(trace, field);
   haptics::ResampleOptions resample_options;
   resample_options.rate_hz = f.trace.rate_hz;
@@ -127,7 +132,7 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   session.set_attribute("slip_ratio", model.options().slip_ratio);
   session.set_attribute("surface_samples", std::int64_t{model.surface_sample_count()});
   session.set_attribute("loop_rate_hz", device.rate_hz());
-  session.set_attribute("clock", std::string("lockstep"));
+  session.set_attribute("clock", std::string(f.realtime ? "realtime" : "lockstep"));
   session.set_attribute("max_gap_s", f.trace.max_gap_s);
   session.set_attribute("max_force_n", f.limits.max_force_n);
   session.set_attribute("ramp_in_s", f.limits.ramp_in_s);
@@ -154,6 +159,8 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   haptics::SurfaceChangeChannel channel;
   haptics::SculptContext sculpt;
   haptics::SculptSummary sculpted;
+  haptics::RealtimeSculpt realtime_sculpt;
+  haptics::TimingSummary timing;
   if (f.plastic) {
     engine::RelaxOptions relax_options;
     relax_options.tolerance = f.relax_tolerance;
@@ -162,14 +169,23 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
     sculpt.mirror = &field;
     sculpt.channel = &channel;
     sculpt.relax_voxels_per_tick = f.relax_voxels_per_tick;
+    realtime_sculpt.mass = mass.get();
+    realtime_sculpt.field = buffers.get();
+    realtime_sculpt.channel = &channel;
+    realtime_sculpt.relax_voxels_per_slice = f.relax_voxels_per_tick;
   }
   const bool show_progress = !f.quiet && isatty(STDERR_FILENO) && device.tick_count() >= 2000;
   haptics::ReplaySummary s;
   try {
-    s = haptics::replay_lockstep(
-        model, device, f.limits, &session,
-        show_progress ? haptics::ProgressFn(print_progress) : haptics::ProgressFn(),
-        f.plastic ? &sculpt : nullptr, &sculpted);
+    const haptics::ProgressFn progress =
+        show_progress ? haptics::ProgressFn(print_progress) : haptics::ProgressFn();
+    if (f.realtime) {
+      s = haptics::replay_realtime(model, device, f.limits, &session, progress,
+                                   f.plastic ? &realtime_sculpt : nullptr, &sculpted, &timing);
+    } else {
+      s = haptics::replay_lockstep(model, device, f.limits, &session, progress,
+                                   f.plastic ? &sculpt : nullptr, &sculpted);
+    }
   } catch (...) {
     session.abandon();
     throw;
@@ -182,6 +198,15 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   session.set_attribute("summary_trace_gaps", std::int64_t{s.trace_gaps});
   session.set_attribute("summary_compute_p50_us", s.compute_p50_us);
   session.set_attribute("summary_compute_p99_us", s.compute_p99_us);
+  if (f.realtime) {
+    session.set_attribute("summary_lateness_p50_us", timing.lateness_p50_us);
+    session.set_attribute("summary_lateness_p99_us", timing.lateness_p99_us);
+    session.set_attribute("summary_lateness_p999_us", timing.lateness_p999_us);
+    session.set_attribute("summary_lateness_max_us", timing.lateness_max_us);
+    session.set_attribute("summary_missed_deadlines",
+                          static_cast<std::int64_t>(timing.missed_deadlines));
+    session.set_attribute("summary_achieved_rate_hz", timing.achieved_rate_hz);
+  }
   if (f.plastic) {
     session.set_attribute("summary_plastic_events",
                           static_cast<std::int64_t>(sculpted.plastic_events));
@@ -199,8 +224,8 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
 
   std::printf("replayed %s on %s -> %s\n", f.trace_path.c_str(), f.volume.c_str(),
               f.output.c_str());
-  std::printf("  ticks            %zu at %.0f Hz (%.3f s simulated, lockstep)\n", s.ticks,
-              device.rate_hz(), s.duration_s);
+  std::printf("  ticks            %zu at %.0f Hz (%.3f s, %s)\n", s.ticks, device.rate_hz(),
+              s.duration_s, f.realtime ? "realtime" : "simulated, lockstep");
   std::printf("  tool position    %s .. %s mm (volume space)\n",
               vec_text(device.tool_position_mm(0)).c_str(),
               vec_text(device.tool_position_mm(s.ticks - 1)).c_str());
@@ -210,6 +235,13 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
               s.clamped_ticks, f.limits.max_force_n);
   std::printf("  compute per tick p50 %.2f us, p99 %.2f us, max %.2f us (%d surface samples)\n",
               s.compute_p50_us, s.compute_p99_us, s.compute_max_us, model.surface_sample_count());
+  if (f.realtime) {
+    std::printf(
+        "  lateness         p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us; "
+        "%zu missed deadlines; %.1f Hz achieved\n",
+        timing.lateness_p50_us, timing.lateness_p99_us, timing.lateness_p999_us,
+        timing.lateness_max_us, timing.missed_deadlines, timing.achieved_rate_hz);
+  }
   if (f.plastic) {
     std::printf(
         "  plastic          %llu events, %llu voxels deleted, %llu relaxed, queue max %zu "
@@ -259,6 +291,9 @@ void add_replay_command(CLI::App& app) {
   flags->trace.add_to(*cmd);
   flags->transform.add_to(*cmd);
   flags->force.add_to(*cmd);
+  cmd->add_flag("--realtime", flags->realtime,
+                "Pace the force loop by the wall clock on its own thread (relaxation on a "
+                "second thread) instead of the simulated lockstep clock");
   cmd->add_flag("--plastic", flags->plastic,
                 "Sculpt: incremental plasticity, deletion and progressive relaxation");
   cmd->add_option("--yield-stress-pa", flags->force.options.plastic.yield_stress_pa,
@@ -269,7 +304,8 @@ void add_replay_command(CLI::App& app) {
                   "Elasto-plastic slope E_ep in [0, E), Pa (> 0: linear hardening)")
       ->capture_default_str();
   cmd->add_option("--relax-voxels-per-tick", flags->relax_voxels_per_tick,
-                  "Relaxation budget per 1 kHz tick (lockstep)")
+                  "Relaxation budget per 1 kHz tick (lockstep) or per slice of the relaxation "
+                  "thread (realtime)")
       ->capture_default_str();
   cmd->add_option("--relax-tolerance", flags->relax_tolerance,
                   "Settled when no voxel exceeds normal density by more than this fraction")

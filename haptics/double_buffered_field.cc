@@ -1,0 +1,63 @@
+#include "haptics/double_buffered_field.h"
+
+#include <chrono>
+#include <thread>
+
+namespace hapvox::haptics {
+namespace {
+
+engine::DensityField deep_copy(const engine::DensityField& field) {
+  return engine::DensityField(field.grid().deepCopy(), field.voxel_size_mm(), field.origin_mm(),
+                              field.dims());
+}
+
+}  // namespace
+
+DoubleBufferedField::DoubleBufferedField(const engine::DensityField& initial)
+    : buffers_{deep_copy(initial), deep_copy(initial)} {}
+
+std::size_t DoubleBufferedField::write_into(int index, engine::MassGrid& mass) {
+  auto out = buffers_[index].mutable_grid().getAccessor();
+  std::size_t written = 0;
+  for (const auto* list : {&owed_to_back_, &fresh_}) {
+    for (const openvdb::Coord& ijk : *list) {
+      const float rho = mass.density(ijk);
+      if (rho == 0.0f) {
+        out.setValueOff(ijk, 0.0f);
+      } else {
+        out.setValueOn(ijk, rho);
+      }
+      ++written;
+    }
+  }
+  return written;
+}
+
+std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
+                                         const std::atomic<bool>& reader_done) {
+  mass.take_changes(fresh_);
+  if (fresh_.empty() && owed_to_back_.empty()) return 0;
+  const int back = 1 - front_.load(std::memory_order_relaxed);
+  const std::size_t written = write_into(back, mass);
+  front_.store(back, std::memory_order_release);
+  // The old front may still be read until the reader announces the new one.
+  while (reading_.load(std::memory_order_acquire) != back &&
+         !reader_done.load(std::memory_order_acquire)) {
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
+  }
+  owed_to_back_.swap(fresh_);  // the new back buffer still lacks these
+  fresh_.clear();
+  return written;
+}
+
+void DoubleBufferedField::publish_unsynchronized(engine::MassGrid& mass) {
+  mass.take_changes(fresh_);
+  const int back = 1 - front_.load(std::memory_order_relaxed);
+  write_into(back, mass);
+  owed_to_back_.insert(owed_to_back_.end(), fresh_.begin(), fresh_.end());
+  write_into(1 - back, mass);
+  owed_to_back_.clear();
+  fresh_.clear();
+}
+
+}  // namespace hapvox::haptics

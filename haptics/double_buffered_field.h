@@ -1,0 +1,58 @@
+#pragma once
+// The density field shared by the force thread (one reader) and the relaxation thread
+// (one writer), kept in two buffers (a "left-right" scheme).
+//
+// Why not one OpenVDB tree: a tree must not be read while another thread changes its
+// topology, and relaxation creates and empties leaves all the time. Why not a snapshot
+// per change: copying a tree costs milliseconds. Here the reader never waits: each tick
+// it loads which buffer is the front one and announces that it reads it (one atomic load,
+// one atomic store, no allocation). The writer only ever writes the back buffer: it
+// applies the changed voxels, publishes the back buffer as the new front, and waits until
+// the reader has announced the switch before touching the old front, which then gets
+// the same changes at the next publication.
+
+#include <atomic>
+#include <vector>
+
+#include "engine/density_field.h"
+#include "engine/relax.h"
+
+namespace hapvox::haptics {
+
+class DoubleBufferedField {
+ public:
+  /// Both buffers start as deep copies of `initial`.
+  explicit DoubleBufferedField(const engine::DensityField& initial);
+
+  engine::DensityField& buffer(int index) { return buffers_[index]; }
+  const engine::DensityField& buffer(int index) const { return buffers_[index]; }
+
+  /// Reader (force thread), once per tick: the buffer to read this tick. Wait-free.
+  int acquire_for_reading() {
+    const int front = front_.load(std::memory_order_acquire);
+    reading_.store(front, std::memory_order_release);
+    return front;
+  }
+
+  /// Writer (relaxation thread): brings the back buffer up to date with `mass`, makes it
+  /// the front, and waits (sleeping) until the reader reads it or `reader_done` is set.
+  /// Returns the number of voxels written.
+  std::size_t publish(engine::MassGrid& mass, const std::atomic<bool>& reader_done);
+
+  /// Writer, when no reader runs (before start or after join): both buffers up to date.
+  void publish_unsynchronized(engine::MassGrid& mass);
+
+  int front() const { return front_.load(std::memory_order_acquire); }
+
+ private:
+  std::size_t write_into(int index, engine::MassGrid& mass);
+
+  engine::DensityField buffers_[2];
+  std::atomic<int> front_{0};
+  std::atomic<int> reading_{0};
+  // Writer-only: voxels changed since each buffer was last written.
+  std::vector<openvdb::Coord> fresh_;
+  std::vector<openvdb::Coord> owed_to_back_;
+};
+
+}  // namespace hapvox::haptics

@@ -1,0 +1,231 @@
+#include "haptics/realtime.h"
+
+#include <pthread.h>
+#include <sys/prctl.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "engine/check.h"
+
+namespace hapvox::haptics {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Sleeping overshoots by up to the timer slack; the last stretch is spun.
+constexpr auto kSpinWindow = std::chrono::microseconds(150);
+
+void wait_until(Clock::time_point deadline) {
+  const auto now = Clock::now();
+  if (deadline - now > kSpinWindow) std::this_thread::sleep_until(deadline - kSpinWindow);
+  while (Clock::now() < deadline) {
+  }
+}
+
+std::int64_t ns_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count();
+}
+
+// Counters the relaxation thread publishes for the force thread's rows.
+struct RelaxCounters {
+  std::atomic<std::uint64_t> deleted{0};
+  std::atomic<std::uint64_t> relaxed{0};
+  std::atomic<std::int64_t> mass_units{0};
+};
+
+void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
+                RelaxCounters& counters) {
+  auto last_mass = Clock::now();
+  while (true) {
+    const bool finishing = force_done.load(std::memory_order_acquire);
+    std::size_t did = 0;
+    engine::SurfaceChange change;
+    while (sculpt.channel->pop(change)) {
+      sculpt.mass->apply_deletion(change);
+      ++did;
+    }
+    did += sculpt.mass->relax(sculpt.relax_voxels_per_slice);
+    if (sculpt.mass->has_changes()) sculpt.field->publish(*sculpt.mass, force_done);
+    counters.deleted.store(sculpt.mass->work().deleted_voxels, std::memory_order_relaxed);
+    counters.relaxed.store(sculpt.mass->work().relaxed_voxels, std::memory_order_relaxed);
+    if (Clock::now() - last_mass > std::chrono::milliseconds(50)) {
+      counters.mass_units.store(sculpt.mass->total_mass_units(), std::memory_order_relaxed);
+      last_mass = Clock::now();
+    }
+    if (finishing) break;
+    if (did == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+}
+
+}  // namespace
+
+ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDevice& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress, RealtimeSculpt* sculpt,
+                              SculptSummary* sculpt_summary, TimingSummary* timing,
+                              const ForceThreadHooks* hooks) {
+  ReplaySummary summary;
+  summary.ticks = device.tick_count();
+  summary.trace_gaps = device.trace().gap_count;
+  summary.trace_held_s = device.trace().held_time_s;
+  if (summary.ticks == 0) return summary;
+  if (sculpt != nullptr) {
+    HAPVOX_CHECK(sculpt->mass != nullptr && sculpt->field != nullptr && sculpt->channel != nullptr);
+    HAPVOX_CHECK(&model.field() == &sculpt->field->buffer(0));
+  }
+  const double t0 = device.time_s(0);
+  const auto dt = std::chrono::nanoseconds(std::llround(1e9 / device.rate_hz()));
+  summary.duration_s = device.time_s(summary.ticks - 1) - t0;
+
+  // Everything the force thread touches is made here, before it starts.
+  std::vector<TickRecord> rows(summary.ticks);
+  std::atomic<std::size_t> rows_done{0};
+  std::atomic<bool> force_done{false};
+  RelaxCounters counters;
+  SculptSummary sculpted;
+  if (sculpt != nullptr) {
+    sculpted.initial_mass_units = sculpt->mass->total_mass_units();
+    counters.mass_units.store(sculpted.initial_mass_units);
+  }
+  engine::ToolForceState state =
+      sculpt != nullptr ? model.make_state(sculpt->field->buffer(1)) : model.make_state();
+  std::uint64_t plastic_events = 0;
+  std::size_t max_queue_depth = 0;
+
+  const auto start = Clock::now() + std::chrono::milliseconds(5);
+  std::thread force_thread([&] {
+    // Timer slack: the kernel may otherwise add ~50 us to every sleep (best effort).
+    prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+    pthread_setname_np(pthread_self(), "hapvox-force");
+    std::uint64_t deleted_before = 0, relaxed_before = 0;
+    if (hooks != nullptr && hooks->loop_started) hooks->loop_started();
+    for (std::size_t tick = 0; tick < summary.ticks; ++tick) {
+      const auto deadline = start + tick * dt;
+      wait_until(deadline);
+      const auto begin = Clock::now();
+      TickRecord& row = rows[tick];
+      row.time_s = device.time_s(tick);
+      row.device_position_mm = device.device_position_mm(tick);
+      row.tool_position_mm = device.tool_position_mm(tick);
+      row.holding = device.holding(tick) ? 1 : 0;
+      if (sculpt != nullptr) state.read_from(sculpt->field->acquire_for_reading());
+      model.step(row.tool_position_mm, state);
+      const double ramp = limits.ramp_in_s > 0.0 ? (row.time_s - t0) / limits.ramp_in_s : 1.0;
+      bool clamped = false, nonfinite = false;
+      row.force_n = safe_force(state.force_n, ramp, limits, &clamped, &nonfinite);
+      const auto end = Clock::now();
+      row.displacement_mm = state.displacement_mm;
+      row.contact_area_mm2 = state.contact.contact_area_mm2;
+      row.contact = state.in_contact ? 1 : 0;
+      row.clamped = clamped ? 1 : 0;
+      row.strain = state.strain;
+      row.stress_measure_pa = state.stress_measure_pa;
+      row.zone = static_cast<std::uint8_t>(state.zone);
+      row.plastic_event = state.surface_change_emitted ? 1 : 0;
+      if (sculpt != nullptr) {
+        if (state.surface_change_emitted) {
+          sculpt->channel->push(state.surface_change);
+          ++plastic_events;
+        } else {
+          sculpt->channel->flush();
+        }
+        row.queue_depth = sculpt->channel->depth();
+        max_queue_depth = std::max<std::size_t>(max_queue_depth, row.queue_depth);
+        const std::uint64_t deleted = counters.deleted.load(std::memory_order_relaxed);
+        const std::uint64_t relaxed = counters.relaxed.load(std::memory_order_relaxed);
+        row.deleted_voxels = static_cast<std::int64_t>(deleted - deleted_before);
+        row.relaxed_voxels = static_cast<std::int64_t>(relaxed - relaxed_before);
+        deleted_before = deleted;
+        relaxed_before = relaxed;
+        row.total_mass_units = counters.mass_units.load(std::memory_order_relaxed);
+      }
+      row.scheduled_ns = ns_between(start, deadline);
+      row.start_ns = ns_between(start, begin);
+      row.compute_ns = ns_between(begin, end);
+      rows_done.store(tick + 1, std::memory_order_release);
+    }
+    if (hooks != nullptr && hooks->loop_finished) hooks->loop_finished();
+    if (sculpt != nullptr) {
+      // Hand over what is still pending before the relaxation thread finishes.
+      while (!sculpt->channel->flush()) std::this_thread::yield();
+    }
+    force_done.store(true, std::memory_order_release);
+  });
+  std::thread relax_thread;
+  if (sculpt != nullptr) {
+    relax_thread = std::thread([&] {
+      pthread_setname_np(pthread_self(), "hapvox-relax");
+      relax_loop(*sculpt, force_done, counters);
+    });
+  }
+
+  // This thread: the session writer.
+  std::size_t written = 0;
+  const std::size_t progress_every = std::max<std::size_t>(1, summary.ticks / 100);
+  std::size_t next_progress = progress_every;
+  while (written < summary.ticks) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const std::size_t done = rows_done.load(std::memory_order_acquire);
+    for (; written < done; ++written) {
+      if (session != nullptr) session->append(rows[written]);
+    }
+    if (progress && written >= next_progress) {
+      progress(written, summary.ticks);
+      next_progress = (written / progress_every + 1) * progress_every;
+    }
+  }
+  force_thread.join();
+  if (relax_thread.joinable()) relax_thread.join();
+  const auto wall_end = Clock::now();
+
+  std::vector<double> compute_us(summary.ticks), lateness_us(summary.ticks);
+  std::size_t missed = 0;
+  const std::int64_t period_ns = dt.count();
+  for (std::size_t i = 0; i < summary.ticks; ++i) {
+    const TickRecord& row = rows[i];
+    compute_us[i] = 1e-3 * static_cast<double>(row.compute_ns);
+    lateness_us[i] = 1e-3 * static_cast<double>(row.start_ns - row.scheduled_ns);
+    if (row.start_ns + row.compute_ns > row.scheduled_ns + period_ns) ++missed;
+    summary.contact_ticks += row.contact;
+    summary.clamped_ticks += row.clamped;
+    summary.peak_force_n = std::max(summary.peak_force_n, row.force_n.norm());
+  }
+  summary.contact_time_s = static_cast<double>(summary.contact_ticks) / device.rate_hz();
+  summary.contact_onsets = state.contact_onsets;
+  summary.nonfinite_forces = state.nonfinite_forces;
+  summary.compute_p50_us = percentile(compute_us, 50.0);
+  summary.compute_p99_us = percentile(compute_us, 99.0);
+  summary.compute_max_us = *std::max_element(compute_us.begin(), compute_us.end());
+  if (timing != nullptr) {
+    timing->lateness_p50_us = percentile(lateness_us, 50.0);
+    timing->lateness_p99_us = percentile(lateness_us, 99.0);
+    timing->lateness_p999_us = percentile(lateness_us, 99.9);
+    timing->lateness_max_us = *std::max_element(lateness_us.begin(), lateness_us.end());
+    timing->missed_deadlines = missed;
+    timing->wall_time_s = 1e-9 * static_cast<double>(ns_between(start, wall_end));
+    timing->achieved_rate_hz =
+        static_cast<double>(summary.ticks) /
+        (1e-9 * static_cast<double>(rows.back().start_ns + rows.back().compute_ns));
+  }
+  if (sculpt != nullptr) {
+    // The threads are joined: apply any last changes, no reader to wait for.
+    engine::SurfaceChange change;
+    while (sculpt->channel->pop(change)) sculpt->mass->apply_deletion(change);
+    sculpt->field->publish_unsynchronized(*sculpt->mass);
+    sculpted.plastic_events = plastic_events;
+    sculpted.queue_overflows = sculpt->channel->overflows();
+    sculpted.max_queue_depth = max_queue_depth;
+    sculpted.deleted_voxels = sculpt->mass->work().deleted_voxels;
+    sculpted.relaxed_voxels = sculpt->mass->work().relaxed_voxels;
+    sculpted.final_mass_units = sculpt->mass->total_mass_units();
+    sculpted.settled = sculpt->mass->settled();
+    if (sculpt_summary != nullptr) *sculpt_summary = sculpted;
+  }
+  return summary;
+}
+
+}  // namespace hapvox::haptics

@@ -1,0 +1,129 @@
+#include "haptics/realtime.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "engine/volume_io.h"
+#include "test_data.h"
+
+// Counts allocations per thread, so a test can prove a thread allocated nothing. (GCC
+// cannot see that these replacements pair malloc with free.)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+namespace {
+thread_local std::uint64_t allocations_on_this_thread = 0;
+}  // namespace
+
+void* operator new(std::size_t size) {
+  ++allocations_on_this_thread;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) {
+  ++allocations_on_this_thread;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new(std::size_t size, std::align_val_t align) {
+  ++allocations_on_this_thread;
+  const std::size_t a = static_cast<std::size_t>(align);
+  if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace hapvox::haptics {
+namespace {
+
+TraceDevice clay_device(double rate_hz, double speed_mm_s) {
+  TraceMakeOptions make;
+  make.shape = TraceShape::kStroke;
+  make.start_mm = Vec3d(14.3, 24.4, 32.0);  // block:dims=48 face at z = 23.5
+  make.travel_mm = 9.0;
+  make.speed_mm_s = speed_mm_s;
+  make.stroke_length_mm = 20.0;
+  ResampleOptions resample_options;
+  resample_options.rate_hz = rate_hz;
+  return TraceDevice(resample(make_trace(make), resample_options), DeviceTransform{});
+}
+
+struct RealtimeRun {
+  ReplaySummary summary;
+  SculptSummary sculpt;
+  TimingSummary timing;
+  std::uint64_t force_thread_allocations = ~0ull;
+};
+
+RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& session_path) {
+  const engine::DensityField field = engine::generate_volume("block:dims=48");
+  DoubleBufferedField buffers(field);
+  engine::ToolForceOptions options;
+  options.tool.diameter_mm = 8.0;
+  options.plastic.enabled = true;
+  options.plastic.yield_stress_pa = 20e3;
+  const engine::ToolForceModel model(buffers.buffer(0), options);
+  engine::MassGrid mass(field);
+  SurfaceChangeChannel channel;
+  RealtimeSculpt sculpt{&mass, &buffers, &channel, 2000};
+  RealtimeRun run;
+  std::uint64_t at_start = 0;
+  ForceThreadHooks hooks;
+  hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
+  hooks.loop_finished = [&] {
+    run.force_thread_allocations = allocations_on_this_thread - at_start;
+  };
+  SessionWriter session(session_path);
+  run.summary = replay_realtime(model, device, DeviceLimits{}, &session, {}, &sculpt, &run.sculpt,
+                                &run.timing, &hooks);
+  session.close();
+  return run;
+}
+
+TEST(Realtime, SculptingWithTwoThreadsConservesMassAndRecordsEveryTick) {
+  const std::string dir = testing::scratch_dir();
+  const TraceDevice device = clay_device(1000.0, 20.0);
+  const RealtimeRun run = sculpt_realtime(device, dir + "/rt.h5");
+  EXPECT_EQ(run.summary.ticks, device.tick_count());
+  EXPECT_GT(run.sculpt.plastic_events, 100u);
+  EXPECT_GT(run.sculpt.deleted_voxels, 0u);
+  EXPECT_EQ(run.sculpt.final_mass_units, run.sculpt.initial_mass_units);
+  const SessionInfo info = read_session_info(dir + "/rt.h5");
+  EXPECT_EQ(info.rows, device.tick_count());
+  // Timing is recorded: deadlines 1 ms apart, starts never before their deadline.
+  const auto scheduled = read_session_column(dir + "/rt.h5", "/timing/scheduled_ns");
+  const auto started = read_session_column(dir + "/rt.h5", "/timing/start_ns");
+  for (std::size_t i = 0; i < scheduled.size(); ++i) {
+    ASSERT_EQ(scheduled[i], 1e6 * static_cast<double>(i));
+    ASSERT_GE(started[i], scheduled[i]);
+  }
+  EXPECT_GT(run.timing.achieved_rate_hz, 900.0);
+  // Every mass the relaxation thread published was exact.
+  for (double m : read_session_column(dir + "/rt.h5", "/relax/total_mass_units")) {
+    ASSERT_EQ(static_cast<std::int64_t>(m), run.sculpt.initial_mass_units);
+  }
+}
+
+TEST(Realtime, ForceLoopDoesNotAllocateAfterStart) {
+  // 10 kHz for 1.3 s: more than 10,000 ticks, with contact, plastic events and the
+  // relaxation thread publishing buffers underneath.
+  const TraceDevice device = clay_device(10000.0, 30.0);
+  ASSERT_GE(device.tick_count(), 10000u);
+  const RealtimeRun run = sculpt_realtime(device, testing::scratch_dir() + "/rt.h5");
+  EXPECT_GT(run.sculpt.plastic_events, 100u);
+  EXPECT_EQ(run.force_thread_allocations, 0u);
+  // And the counter does see allocations.
+  const std::uint64_t before = allocations_on_this_thread;
+  auto* probe = new std::vector<int>(10);
+  EXPECT_GE(allocations_on_this_thread - before, 2u);
+  delete probe;
+}
+
+}  // namespace
+}  // namespace hapvox::haptics
