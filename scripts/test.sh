@@ -18,6 +18,6 @@ if ! bash "$root/scripts/build.sh" "$build_dir" -DHAPVOX_SANITIZE="$sanitize" >"
 fi
 export ASAN_OPTIONS=${ASAN_OPTIONS:-"detect_leaks=0:abort_on_error=1"}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-"print_stacktrace=1:halt_on_error=1"}
-export TSAN_OPTIONS=${TSAN_OPTIONS:-"halt_on_error=1"}
+export TSAN_OPTIONS=${TSAN_OPTIONS:-"halt_on_error=1 second_deadlock_stack=1 suppressions=$root/scripts/tsan.supp"}
 cd "$build_dir"
 ctest --output-on-failure -j "$(nproc)"
