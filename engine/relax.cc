@@ -60,7 +60,10 @@ void MassGrid::set(const openvdb::Coord& ijk, std::int32_t units) {
   } else {
     accessor_.setValueOn(ijk, units);
   }
-  changed_.push_back(ijk);
+  if (!listed_accessor_.isValueOn(ijk)) {
+    listed_accessor_.setValueOn(ijk);
+    changed_.push_back(ijk);
+  }
 }
 
 void MassGrid::activate_if_over(const openvdb::Coord& ijk, std::int32_t units) {
@@ -233,6 +236,7 @@ std::size_t MassGrid::publish_changes(DensityField& mirror) {
     }
   }
   const std::size_t count = changed_.size();
+  for (const openvdb::Coord& ijk : changed_) listed_accessor_.setValueOff(ijk);
   changed_.clear();
   return count;
 }

@@ -72,6 +72,7 @@ class MassGrid {
   void take_changes(std::vector<openvdb::Coord>& out) {
     out.clear();
     out.swap(changed_);
+    for (const openvdb::Coord& ijk : out) listed_accessor_.setValueOff(ijk);
   }
   bool has_changes() const { return !changed_.empty(); }
   /// Density of one voxel as the float the force model reads.
@@ -108,6 +109,9 @@ class MassGrid {
   std::int32_t threshold_units_;
   std::priority_queue<Entry> queue_;
   std::vector<openvdb::Coord> changed_;
+  // Voxels already in changed_, so each is listed (and published) once.
+  openvdb::MaskGrid::Ptr listed_ = openvdb::MaskGrid::create(false);
+  openvdb::MaskGrid::Accessor listed_accessor_ = listed_->getAccessor();
   RelaxWork work_;
   // The tool's last swept sphere (index space), which relaxation must not fill.
   bool has_tool_ = false;
