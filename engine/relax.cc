@@ -113,7 +113,9 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
               Vec3d(target.x(), target.y(), target.z()).cwiseProduct(voxel_size_mm_);
           if (distance_to_segment(centre, a, b) >= radius) break;
         }
-        const std::int32_t target_units = accessor_.getValue(target) + units;
+        const std::int64_t target_sum = std::int64_t{accessor_.getValue(target)} + units;
+        HAPVOX_CHECK_LE(target_sum, std::int64_t{INT32_MAX});
+        const auto target_units = static_cast<std::int32_t>(target_sum);
         set(source, 0);
         set(target, target_units);
         activate_if_over(target, target_units);

@@ -107,6 +107,9 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
 }
 
 bool ToolForceModel::may_touch(const Vec3d& c) const {
+  // Far outside any grid (a trace in the wrong units): index arithmetic would overflow.
+  constexpr double kMaxIndex = 1 << 30;
+  if (!c.allFinite() || c.cwiseAbs().maxCoeff() > kMaxIndex) return false;
   if (active_bbox_.empty()) return false;
   const openvdb::Coord lo = active_bbox_.min();
   const openvdb::Coord hi = active_bbox_.max();

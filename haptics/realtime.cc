@@ -151,7 +151,12 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     if (hooks != nullptr && hooks->loop_finished) hooks->loop_finished();
     if (sculpt != nullptr) {
       // Hand over what is still pending before the relaxation thread finishes.
-      while (!sculpt->channel->flush()) std::this_thread::yield();
+      // Keep announcing the front buffer: the relaxation thread may be waiting for that
+      // before it can drain the queue that this flush waits for.
+      while (!sculpt->channel->flush()) {
+        sculpt->field->acquire_for_reading();
+        std::this_thread::yield();
+      }
     }
     force_done.store(true, std::memory_order_release);
   });

@@ -87,7 +87,9 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
     if (!f.plastic) throw InputError("--sculpt-out", "needs --plastic");
     check_output_path(f.sculpt_out + ".vdb", "--sculpt-out");
   }
-  if (!(f.relax_tolerance >= 0.0)) throw InputError("--relax-tolerance", "must be >= 0");
+  if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
+    throw InputError("--relax-tolerance", "must lie in [0, 10]");
+  }
   if (f.plastic) {
     const auto& plastic = f.force.options.plastic;
     if (!std::isfinite(plastic.yield_stress_pa) || plastic.yield_stress_pa <= 0.0) {

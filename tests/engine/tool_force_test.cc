@@ -280,6 +280,20 @@ TEST(ToolForce, PlasticPathShowsTheThreeSlopesAndTheYield) {
   }
 }
 
+TEST(ToolForce, FarAwayPositionsGiveZeroForceEvenWithoutBounds) {
+  // Plastic models skip the bounding-box early-out; absurd positions must still be safe.
+  const DensityField field = make_block(16, 8, Vec3d::Constant(1.0));
+  ToolForceOptions o = options_for(4.0, 1e5);
+  o.plastic.enabled = true;
+  const ToolForceModel model(field, o);
+  ToolForceState state = model.make_state();
+  for (const Vec3d& p : {Vec3d(1e12, 0, 0), Vec3d(-3e9, 4e9, 0), Vec3d(0, 0, -1e300)}) {
+    model.step(p, state);
+    EXPECT_EQ(state.force_n, Vec3d::Zero());
+    EXPECT_FALSE(state.in_contact);
+  }
+}
+
 TEST(ToolForce, RejectsNonsensePlasticMaterial) {
   const DensityField field = make_block(16, 8, Vec3d::Constant(1.0));
   ToolForceOptions o = options_for(4.0, 1e5);

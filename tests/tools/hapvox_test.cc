@@ -291,6 +291,9 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
   expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
                          "/x.h5 --plastic -E 1e5 --elastoplastic-modulus-pa 2e5",
                      "--elastoplastic-modulus-pa: must lie in [0, E)");
+  expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
+                         "/x.h5 --plastic --relax-tolerance inf",
+                     "--relax-tolerance: must lie in [0, 10]");
 }
 
 TEST(HapvoxCli, BenchForcePrintsTheTable) {
