@@ -94,6 +94,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   engine::ToolForceState state =
       sculpt != nullptr ? model.make_state(sculpt->field->buffer(1)) : model.make_state();
   std::uint64_t plastic_events = 0;
+  std::size_t nonfinite_forces = 0;
   std::size_t max_queue_depth = 0;
 
   const auto start = Clock::now() + std::chrono::milliseconds(5);
@@ -108,32 +109,13 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       wait_until(deadline);
       const auto begin = Clock::now();
       TickRecord& row = rows[tick];
-      row.time_s = device.time_s(tick);
-      row.device_position_mm = device.device_position_mm(tick);
-      row.tool_position_mm = device.tool_position_mm(tick);
-      row.holding = device.holding(tick) ? 1 : 0;
       if (sculpt != nullptr) state.read_from(sculpt->field->acquire_for_reading());
-      model.step(row.tool_position_mm, state);
-      const double ramp = limits.ramp_in_s > 0.0 ? (row.time_s - t0) / limits.ramp_in_s : 1.0;
-      bool clamped = false, nonfinite = false;
-      row.force_n = safe_force(state.force_n, ramp, limits, &clamped, &nonfinite);
+      const bool nonfinite = run_force_stage(model, device, tick, limits, state,
+                                             sculpt != nullptr ? sculpt->channel : nullptr, row);
+      nonfinite_forces += nonfinite ? 1 : 0;
       const auto end = Clock::now();
-      row.displacement_mm = state.displacement_mm;
-      row.contact_area_mm2 = state.contact.contact_area_mm2;
-      row.contact = state.in_contact ? 1 : 0;
-      row.clamped = clamped ? 1 : 0;
-      row.strain = state.strain;
-      row.stress_measure_pa = state.stress_measure_pa;
-      row.zone = static_cast<std::uint8_t>(state.zone);
-      row.plastic_event = state.surface_change_emitted ? 1 : 0;
       if (sculpt != nullptr) {
-        if (state.surface_change_emitted) {
-          sculpt->channel->push(state.surface_change);
-          ++plastic_events;
-        } else {
-          sculpt->channel->flush();
-        }
-        row.queue_depth = sculpt->channel->depth();
+        plastic_events += row.plastic_event;
         max_queue_depth = std::max<std::size_t>(max_queue_depth, row.queue_depth);
         const std::uint64_t deleted = counters.deleted.load(std::memory_order_relaxed);
         const std::uint64_t relaxed = counters.relaxed.load(std::memory_order_relaxed);
@@ -201,7 +183,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   }
   summary.contact_time_s = static_cast<double>(summary.contact_ticks) / device.rate_hz();
   summary.contact_onsets = state.contact_onsets;
-  summary.nonfinite_forces = state.nonfinite_forces;
+  summary.nonfinite_forces = nonfinite_forces + state.nonfinite_forces;
   summary.compute_p50_us = percentile(compute_us, 50.0);
   summary.compute_p99_us = percentile(compute_us, 99.0);
   summary.compute_max_us = *std::max_element(compute_us.begin(), compute_us.end());

@@ -31,6 +31,38 @@ double percentile(std::vector<double> values, double pct) {
   return values[index];
 }
 
+bool run_force_stage(const engine::ToolForceModel& model, const TraceDevice& device,
+                     std::size_t tick, const DeviceLimits& limits, engine::ToolForceState& state,
+                     SurfaceChangeChannel* channel, TickRecord& row) {
+  const double t0 = device.time_s(0);
+  row.time_s = device.time_s(tick);
+  row.device_position_mm = device.device_position_mm(tick);
+  row.tool_position_mm = device.tool_position_mm(tick);
+  row.holding = device.holding(tick) ? 1 : 0;
+  model.step(row.tool_position_mm, state);
+  const double ramp = limits.ramp_in_s > 0.0 ? (row.time_s - t0) / limits.ramp_in_s : 1.0;
+  bool clamped = false;
+  bool nonfinite = false;
+  row.force_n = safe_force(state.force_n, ramp, limits, &clamped, &nonfinite);
+  row.clamped = clamped ? 1 : 0;
+  row.displacement_mm = state.displacement_mm;
+  row.contact_area_mm2 = state.contact.contact_area_mm2;
+  row.contact = state.in_contact ? 1 : 0;
+  row.strain = state.strain;
+  row.stress_measure_pa = state.stress_measure_pa;
+  row.zone = static_cast<std::uint8_t>(state.zone);
+  row.plastic_event = state.surface_change_emitted ? 1 : 0;
+  if (channel != nullptr) {
+    if (state.surface_change_emitted) {
+      channel->push(state.surface_change);
+    } else {
+      channel->flush();
+    }
+    row.queue_depth = channel->depth();
+  }
+  return nonfinite;
+}
+
 ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, SculptContext* sculpt,
@@ -60,34 +92,14 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
 
   for (std::size_t tick = 0; tick < summary.ticks; ++tick) {
     TickRecord row;
-    row.time_s = device.time_s(tick);
-    row.device_position_mm = device.device_position_mm(tick);
-    row.tool_position_mm = device.tool_position_mm(tick);
-    row.holding = device.holding(tick) ? 1 : 0;
-    row.scheduled_ns = static_cast<std::int64_t>(std::llround(1e9 * (row.time_s - t0)));
+    row.scheduled_ns = static_cast<std::int64_t>(std::llround(1e9 * (device.time_s(tick) - t0)));
     row.start_ns = row.scheduled_ns;
-
     const auto start = Clock::now();
-    model.step(row.tool_position_mm, state);
-    const double ramp = limits.ramp_in_s > 0.0 ? (row.time_s - t0) / limits.ramp_in_s : 1.0;
-    bool clamped = false;
-    bool nonfinite = false;
-    row.force_n = safe_force(state.force_n, ramp, limits, &clamped, &nonfinite);
+    const bool nonfinite = run_force_stage(model, device, tick, limits, state,
+                                           sculpt != nullptr ? sculpt->channel : nullptr, row);
     const auto end = Clock::now();
-
-    row.strain = state.strain;
-    row.stress_measure_pa = state.stress_measure_pa;
-    row.zone = static_cast<std::uint8_t>(state.zone);
-    row.plastic_event = state.surface_change_emitted ? 1 : 0;
     if (sculpt != nullptr) {
-      // Force stage output -> channel (as the force thread does in realtime).
-      if (state.surface_change_emitted) {
-        sculpt->channel->push(state.surface_change);
-        ++sculpted.plastic_events;
-      } else {
-        sculpt->channel->flush();
-      }
-      row.queue_depth = sculpt->channel->depth();
+      sculpted.plastic_events += row.plastic_event;
       sculpted.max_queue_depth = std::max<std::size_t>(sculpted.max_queue_depth, row.queue_depth);
       // Relaxation stage: deletions first (highest priority), then a fixed budget.
       const engine::RelaxWork before = sculpt->mass->work();
@@ -104,10 +116,6 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
       }
       row.total_mass_units = mass_units;
     }
-    row.displacement_mm = state.displacement_mm;
-    row.contact_area_mm2 = state.contact.contact_area_mm2;
-    row.contact = state.in_contact ? 1 : 0;
-    row.clamped = clamped ? 1 : 0;
     row.compute_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(end - start).count();
     compute_us[tick] = 1e-3 * static_cast<double>(row.compute_ns);
 

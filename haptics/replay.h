@@ -89,6 +89,15 @@ struct SculptSummary {
   bool settled = false;
 };
 
+/// The force stage of tick `tick`, the same code in lockstep and realtime: reads the
+/// device, steps the model, makes the force safe, and fills the row's device, force and
+/// plasticity fields. With a channel, hands a surface change to it (or flushes a coalesced
+/// one) and records the queue depth. Returns true when the model's force was non-finite
+/// (sent as zero). Does not allocate, lock, throw or do I/O.
+bool run_force_stage(const engine::ToolForceModel& model, const TraceDevice& device,
+                     std::size_t tick, const DeviceLimits& limits, engine::ToolForceState& state,
+                     SurfaceChangeChannel* channel, TickRecord& row);
+
 /// Called now and then with (ticks done, ticks total).
 using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 
