@@ -7,7 +7,7 @@
 namespace hapvox::testing {
 
 std::string source_path(const std::string& relative) {
-  return std::string(HAPVOX_SOURCE_DIR) + "/" + relative;
+  return (std::filesystem::path(HAPVOX_SOURCE_DIR) / relative).string();
 }
 
 std::string hapvox_binary() { return HAPVOX_BINARY; }
