@@ -29,7 +29,8 @@ MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
       origin_mm_(field.origin_mm()),
       dims_(field.dims()),
       threshold_units_(static_cast<std::int32_t>(
-          std::floor(kNormalDensityUnits * (1.0 + std::max(0.0, options.tolerance))))) {
+          std::floor(kNormalDensityUnits * (1.0 + std::max(0.0, options.tolerance))))),
+      rule_(options.rule) {
   for (auto it = field.grid().cbeginValueOn(); it; ++it) {
     const auto units = static_cast<std::int32_t>(std::lround(*it * kNormalDensityUnits));
     if (units <= 0) continue;
@@ -85,6 +86,8 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
   tool_to_index_ = (change.position_mm - origin_mm_).cwiseQuotient(voxel_size_mm_);
   tool_radius_mm_ = radius;
   has_tool_ = true;
+  for (const openvdb::Coord& ijk : walled_in_) activate_if_over(ijk, accessor_.getValue(ijk));
+  walled_in_.clear();
   const Vec3d a = change.from_mm - origin_mm_;
   const Vec3d b = change.position_mm - origin_mm_;
   const Vec3d dir = change.direction.normalized();
@@ -118,6 +121,8 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
         const auto target_units = static_cast<std::int32_t>(target_sum);
         set(source, 0);
         set(target, target_units);
+        carved_accessor_.setValueOn(source);
+        carved_accessor_.setValueOff(target);
         activate_if_over(target, target_units);
         work_.moved_units += static_cast<std::uint64_t>(units);
         ++emptied;
@@ -141,6 +146,7 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
         if (dx == 0 && dy == 0 && dz == 0) continue;
         const openvdb::Coord n = v.offsetBy(dx, dy, dz);
         if (inside_tool(n)) continue;
+        if (rule_ == RelaxRule::kFlowToRoom && carved_accessor_.isValueOn(n)) continue;
         neighbours[count] = n;
         values[count] = accessor_.getValue(n);
         sum += values[count];
@@ -148,8 +154,15 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
       }
     }
   }
-  if (count == 0) return;  // walled in by the tool: wait until it moves
-  const std::int64_t mean = sum / (count + 1);
+  if (count == 0) {  // walled in by the tool: wait until it moves
+    walled_in_.push_back(v);
+    return;
+  }
+  const bool flow = rule_ == RelaxRule::kFlowToRoom;
+  // Flowing excess never raises a receiver above the normal density: that is what keeps
+  // the bulk from diffusing and lets the pool reach the surface in one search.
+  const std::int64_t mean =
+      flow ? std::min<std::int64_t>(sum / (count + 1), kNormalDensityUnits) : sum / (count + 1);
   std::int64_t added[26] = {};
   std::int64_t given = 0;
   // Material first flows into material (neighbours holding some), and only what they
@@ -181,11 +194,17 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
     for (int n = 0; n < count; ++n) added[n] += share[n];
     given += give;
   }
-  const std::int64_t give = given;
-  // No room below the mean: spread the rest evenly so it diffuses outwards.
-  const std::int64_t rest = excess - give;
-  for (int n = 0; n < count; ++n) added[n] += rest / count;
-  for (int n = 0; n < rest % count; ++n) ++added[n];
+  const std::int64_t rest = excess - given;
+  if (flow) {
+    if (rest > 0) {
+      pool_units_ += rest;
+      pool_sources_.push_back(v);
+    }
+  } else {
+    // The paper: no room below the mean, so the rest is spread evenly and diffuses.
+    for (int n = 0; n < count; ++n) added[n] += rest / count;
+    for (int n = 0; n < rest % count; ++n) ++added[n];
+  }
   set(v, kNormalDensityUnits);
   for (int n = 0; n < count; ++n) {
     if (added[n] == 0) continue;
@@ -207,11 +226,67 @@ std::size_t MassGrid::relax(std::size_t max_voxels) {
     relax_voxel(top.ijk, current);
     ++done;
   }
+  // The pool is mass outside the grid: it flows before returning, so the total is exact
+  // between calls.
+  if (pool_units_ > 0) flow_pool_to_room();
   work_.relaxed_voxels += done;
   return done;
 }
 
+void MassGrid::flow_pool_to_room() {
+  // Breadth-first from all pool sources at once, 6-connected, through voxels holding
+  // material (a filled empty voxel becomes material and the search goes on through it),
+  // never through the tool. Deterministic: sources in relaxation order, neighbours in a
+  // fixed order.
+  static constexpr int kSteps[6][3] = {{0, 0, 1},  {0, 0, -1}, {1, 0, 0},
+                                       {-1, 0, 0}, {0, 1, 0},  {0, -1, 0}};
+  auto visited = flow_visited_->getAccessor();
+  flow_queue_.clear();
+  for (const openvdb::Coord& ijk : pool_sources_) {
+    if (visited.isValueOn(ijk)) continue;
+    visited.setValueOn(ijk);
+    flow_queue_.push_back(ijk);
+  }
+  std::size_t head = 0;
+  while (pool_units_ > 0 && head < flow_queue_.size()) {
+    const openvdb::Coord u = flow_queue_[head++];
+    for (const auto& step : kSteps) {
+      const openvdb::Coord n = u.offsetBy(step[0], step[1], step[2]);
+      if (visited.isValueOn(n)) continue;
+      visited.setValueOn(n);
+      if (inside_tool(n)) continue;
+      std::int32_t units = accessor_.getValue(n);
+      if (units < kNormalDensityUnits && !carved_accessor_.isValueOn(n)) {
+        const std::int64_t deposit =
+            std::min<std::int64_t>(kNormalDensityUnits - units, pool_units_);
+        units += static_cast<std::int32_t>(deposit);
+        pool_units_ -= deposit;
+        set(n, units);
+      }
+      if (units > 0) flow_queue_.push_back(n);
+      if (pool_units_ == 0) break;
+    }
+  }
+  work_.flow_visits += head;
+  ++work_.flows;
+  if (pool_units_ > 0) {
+    // Sealed in by the tool (no reachable room): the rest goes back where it came from
+    // and waits for the tool to move.
+    const openvdb::Coord back = pool_sources_.front();
+    const std::int64_t units = std::int64_t{accessor_.getValue(back)} + pool_units_;
+    HAPVOX_CHECK_LE(units, std::int64_t{INT32_MAX});
+    set(back, static_cast<std::int32_t>(units));
+    walled_in_.push_back(back);
+    pool_units_ = 0;
+  }
+  pool_sources_.clear();
+  flow_visited_->clear();
+}
+
 bool MassGrid::settled() {
+  for (const openvdb::Coord& ijk : walled_in_) {
+    if (accessor_.getValue(ijk) > threshold_units_) return false;
+  }
   while (!queue_.empty()) {
     const Entry& top = queue_.top();
     const std::int32_t current = accessor_.getValue(top.ijk);

@@ -13,9 +13,23 @@
 //   2. relax(budget): take the active voxel of highest density; compute the mean of its
 //      3x3x3 neighbourhood; set it back to the normal density; give the excess to the
 //      neighbours below the mean, raising them at most to the mean (shares proportional to
-//      their room, remainders by a fixed order); if they cannot take it all, the rest is
-//      spread evenly over the neighbourhood; every voxel left above the normal density
-//      (plus the tolerance) is queued. Voxels inside the tool never receive material.
+//      their room, remainders by a fixed order; material neighbours before empty ones).
+//      What they cannot take:
+//        - RelaxRule::kFlowToRoom (default): receivers are also capped at the normal
+//          density, and the rest joins a pool that flows, at the end of the call, to the
+//          room nearest the over-dense voxels: a breadth-first search from all of them
+//          through material (never through the tool) fills every voxel below the normal
+//          density it reaches, nearest first, until the pool is empty. Clay is nearly
+//          incompressible, so material pushed into the bulk appears at the nearest free
+//          surface, as the rim around a pressed tool; the volume settles in one pass.
+//          Voxels the tool carved out are not room: clay does not flow back into the
+//          groove behind a moving tool (only a later deletion's push can refill them).
+//        - RelaxRule::kPaperDiffusion: the rest is spread evenly over the neighbourhood
+//          and every voxel left above the normal density (plus the tolerance) is queued:
+//          the paper's rule, a diffusion whose settling time grows with the square of the
+//          distance to the surface (kept as the benchmark's baseline).
+//      Voxels inside the tool never receive material; excess walled in by the tool waits
+//      until the next deletion moves the tool.
 //
 // Not thread-safe: one relaxation thread (or the lockstep loop) owns a MassGrid.
 
@@ -32,15 +46,20 @@ namespace hapvox::engine {
 
 inline constexpr std::int32_t kNormalDensityUnits = 1 << 16;
 
+enum class RelaxRule { kFlowToRoom, kPaperDiffusion };
+
 struct RelaxOptions {
   /// Settled when no voxel exceeds the normal density by more than this fraction.
   double tolerance = 0.02;
+  RelaxRule rule = RelaxRule::kFlowToRoom;
 };
 
 struct RelaxWork {
   std::uint64_t deleted_voxels = 0;  // voxels emptied by deletions
   std::uint64_t relaxed_voxels = 0;  // active voxels processed
   std::uint64_t moved_units = 0;     // mass moved, fixed-point units
+  std::uint64_t flow_visits = 0;     // voxels the flow-to-room search visited
+  std::uint64_t flows = 0;           // flow-to-room searches run
 };
 
 class MassGrid {
@@ -100,6 +119,7 @@ class MassGrid {
   void activate_if_over(const openvdb::Coord& ijk, std::int32_t units);
   bool inside_tool(const openvdb::Coord& ijk) const;
   void relax_voxel(const openvdb::Coord& ijk, std::int32_t units);
+  void flow_pool_to_room();
 
   openvdb::Int32Grid::Ptr grid_;
   openvdb::Int32Grid::Accessor accessor_;
@@ -107,12 +127,24 @@ class MassGrid {
   Vec3d origin_mm_;
   Vec3i dims_;
   std::int32_t threshold_units_;
+  RelaxRule rule_;
   std::priority_queue<Entry> queue_;
   std::vector<openvdb::Coord> changed_;
   // Voxels already in changed_, so each is listed (and published) once.
   openvdb::MaskGrid::Ptr listed_ = openvdb::MaskGrid::create(false);
   openvdb::MaskGrid::Accessor listed_accessor_ = listed_->getAccessor();
   RelaxWork work_;
+  // Flow to room: excess waiting to flow, the voxels it came from, the search's queue and
+  // visited set (kept between calls so a warmed-up grid does not allocate for them).
+  std::int64_t pool_units_ = 0;
+  std::vector<openvdb::Coord> pool_sources_;
+  std::vector<openvdb::Coord> flow_queue_;
+  openvdb::MaskGrid::Ptr flow_visited_ = openvdb::MaskGrid::create(false);
+  // Voxels emptied by deletions (and not refilled by one since): never room for the flow.
+  openvdb::MaskGrid::Ptr carved_ = openvdb::MaskGrid::create(false);
+  openvdb::MaskGrid::Accessor carved_accessor_ = carved_->getAccessor();
+  // Over-dense voxels walled in by the tool, queued again after the next deletion.
+  std::vector<openvdb::Coord> walled_in_;
   // The tool's last swept sphere (index space), which relaxation must not fill.
   bool has_tool_ = false;
   Vec3d tool_from_index_ = Vec3d::Zero();

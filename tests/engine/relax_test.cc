@@ -43,9 +43,13 @@ TEST(Relax, DeletionEmptiesTheToolAndPushesMaterialAhead) {
   EXPECT_GT(mass.max_density(), 1.5);
 }
 
-TEST(Relax, MassIsConservedBitForBitOverThousandsOfEvents) {
+class RelaxRules : public ::testing::TestWithParam<RelaxRule> {};
+
+TEST_P(RelaxRules, MassIsConservedBitForBitOverThousandsOfEvents) {
   const DensityField field = generate_volume("block:dims=64");
-  MassGrid mass(field);
+  RelaxOptions options;
+  options.rule = GetParam();
+  MassGrid mass(field, options);
   const std::int64_t before = mass.total_mass_units();
   // A tool wandering over and into the surface, pushing in changing directions.
   for (int event = 0; event < 3000; ++event) {
@@ -54,12 +58,62 @@ TEST(Relax, MassIsConservedBitForBitOverThousandsOfEvents) {
     const Vec3d dir(std::sin(3 * t), std::cos(2 * t), -2.0);
     mass.apply_deletion(change_at(p, dir, 2.5));
     mass.relax(50);
+    if (event % 100 == 0) {
+      ASSERT_EQ(mass.total_mass_units(), before) << "event " << event;
+    }
   }
-  EXPECT_EQ(mass.total_mass_units(), before);
   mass.relax(20000);
   EXPECT_EQ(mass.total_mass_units(), before);
   EXPECT_GT(mass.work().deleted_voxels, 5000u);
-  EXPECT_GT(mass.work().relaxed_voxels, 10000u);
+  EXPECT_GT(mass.work().relaxed_voxels, 2000u);
+  // Only the flow settles within that budget; the paper's diffusion is still spreading.
+  if (GetParam() == RelaxRule::kFlowToRoom) {
+    EXPECT_TRUE(mass.settled());
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Relax, RelaxRules,
+                         ::testing::Values(RelaxRule::kFlowToRoom, RelaxRule::kPaperDiffusion),
+                         [](const auto& info) {
+                           return info.param == RelaxRule::kFlowToRoom ? "FlowToRoom"
+                                                                       : "PaperDiffusion";
+                         });
+
+TEST(Relax, DeepPressSettlesInOnePassAndRaisesARimAroundTheTool) {
+  // A diameter-32 tool sunk 8 mm into a block of 1 mm voxels: the paper's diffusion needs
+  // millions of steps here; flowing to the nearest room settles in one pass.
+  const DensityField field = generate_volume("block:dims=96");  // face at z = 47.5
+  MassGrid mass(field);
+  const std::int64_t before = mass.total_mass_units();
+  const Vec3d centre(48, 48, 47.5 + 16.0 - 8.0);
+  mass.apply_deletion(change_at(centre, Vec3d(0, 0, -1), 16.0));
+  ASSERT_FALSE(mass.settled());
+  const std::size_t processed = mass.relax(1000000);
+  EXPECT_TRUE(mass.settled()) << "after " << processed << " voxels";
+  EXPECT_LE(mass.max_density(), 1.0);
+  EXPECT_EQ(mass.total_mass_units(), before);
+  // All material above the old face is a rim hugging the tool: outside it, within a few
+  // radii of its axis, and its mass is the mass the tool displaced below the face.
+  auto acc = mass.grid().getConstAccessor();
+  std::int64_t above_units = 0;
+  double max_axis_mm = 0.0, min_axis_mm = 1e9;
+  for (auto it = mass.grid().cbeginValueOn(); it; ++it) {
+    const openvdb::Coord c = it.getCoord();
+    if (c.z() <= 47) continue;
+    above_units += *it;
+    const double axis_mm = std::hypot(c.x() - centre.x(), c.y() - centre.y());
+    max_axis_mm = std::max(max_axis_mm, axis_mm);
+    min_axis_mm = std::min(min_axis_mm, axis_mm);
+    EXPECT_GE((Vec3d(c.x(), c.y(), c.z()) - centre).norm(), 16.0) << c;
+  }
+  std::int64_t hole_units = 0;
+  for (int i = 0; i < 96; ++i)
+    for (int j = 0; j < 96; ++j)
+      for (int k = 0; k <= 47; ++k) hole_units += kNormalDensityUnits - acc.getValue({i, j, k});
+  EXPECT_EQ(above_units, hole_units);
+  EXPECT_GT(above_units, 1000 * std::int64_t{kNormalDensityUnits});
+  EXPECT_LT(max_axis_mm, 3.0 * 16.0);
+  EXPECT_LT(min_axis_mm, 16.0);  // it touches the tool (the rim starts at the contact)
 }
 
 TEST(Relax, SettlesBackToTheNormalDensity) {
