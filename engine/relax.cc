@@ -15,6 +15,60 @@ double distance_to_segment(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
   return (p - (a + t * ab)).norm();
 }
 
+// The z-interval (mm) where the vertical line through (x, y) lies within `radius` of the
+// segment ab: the hull of its intersections with the two end spheres and the cylinder
+// (the capsule is convex, so the union of the three is one interval). False if empty.
+bool capsule_z_span(double x, double y, const Vec3d& a, const Vec3d& b, double radius, double& z_lo,
+                    double& z_hi) {
+  z_lo = INFINITY;
+  z_hi = -INFINITY;
+  for (const Vec3d* end : {&a, &b}) {
+    const double h2 =
+        radius * radius - (x - end->x()) * (x - end->x()) - (y - end->y()) * (y - end->y());
+    if (h2 <= 0.0) continue;
+    const double h = std::sqrt(h2);
+    z_lo = std::min(z_lo, end->z() - h);
+    z_hi = std::max(z_hi, end->z() + h);
+  }
+  const Vec3d ab = b - a;
+  const double length = ab.norm();
+  if (length > 0.0) {
+    // Points p(z) = w + z e_z relative to a; axis u. Perpendicular part q(z) = q0 + z qz.
+    const Vec3d u = ab / length;
+    const Vec3d w(x - a.x(), y - a.y(), -a.z());
+    const Vec3d q0 = w - w.dot(u) * u;
+    const Vec3d qz = Vec3d::UnitZ() - u.z() * u;
+    const double qa = qz.squaredNorm(), qb = 2.0 * q0.dot(qz),
+                 qc = q0.squaredNorm() - radius * radius;
+    double c_lo = -INFINITY, c_hi = INFINITY;
+    bool hit = true;
+    if (qa > 1e-12) {
+      const double disc = qb * qb - 4.0 * qa * qc;
+      if (disc <= 0.0) {
+        hit = false;
+      } else {
+        c_lo = (-qb - std::sqrt(disc)) / (2.0 * qa);
+        c_hi = (-qb + std::sqrt(disc)) / (2.0 * qa);
+      }
+    } else if (qc >= 0.0) {
+      hit = false;  // line parallel to the axis, outside the cylinder
+    }
+    // Within the slab 0 <= (p - a).u <= length: w.u + z u.z in [0, length].
+    if (hit && std::abs(u.z()) > 1e-12) {
+      const double t0 = (0.0 - w.dot(u)) / u.z(), t1 = (length - w.dot(u)) / u.z();
+      c_lo = std::max(c_lo, std::min(t0, t1));
+      c_hi = std::min(c_hi, std::max(t0, t1));
+    } else if (hit) {
+      hit = w.dot(u) >= 0.0 && w.dot(u) <= length;
+    }
+    if (hit && c_lo < c_hi) {
+      z_lo = std::min(z_lo, c_lo);
+      z_hi = std::max(z_hi, c_hi);
+    }
+  }
+  return z_lo < z_hi;
+}
+
 openvdb::Coord to_coord(const Vec3d& v) {
   return openvdb::Coord(static_cast<int>(std::lround(v.x())), static_cast<int>(std::lround(v.y())),
                         static_cast<int>(std::lround(v.z())));
@@ -99,15 +153,34 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
        ++i) {
     for (int j = static_cast<int>(std::floor(lo.y())); j <= static_cast<int>(std::ceil(hi.y()));
          ++j) {
-      for (int k = static_cast<int>(std::floor(lo.z())); k <= static_cast<int>(std::ceil(hi.z()));
-           ++k) {
+      // Only the voxels on this column's span through the sweep (one voxel of slack; the
+      // exact test below decides).
+      double z_lo_mm, z_hi_mm;
+      if (!capsule_z_span(i * voxel_size_mm_.x(), j * voxel_size_mm_.y(), a, b, radius, z_lo_mm,
+                          z_hi_mm)) {
+        continue;
+      }
+      const int k_lo = std::max(static_cast<int>(std::floor(lo.z())),
+                                static_cast<int>(std::floor(z_lo_mm / voxel_size_mm_.z())) - 1);
+      const int k_hi = std::min(static_cast<int>(std::ceil(hi.z())),
+                                static_cast<int>(std::ceil(z_hi_mm / voxel_size_mm_.z())) + 1);
+      for (int k = k_lo; k <= k_hi; ++k) {
         const openvdb::Coord source(i, j, k);
         const Vec3d p = Vec3d(i, j, k).cwiseProduct(voxel_size_mm_);
         if (distance_to_segment(p, a, b) >= radius) continue;
         const std::int32_t units = accessor_.getValue(source);
         if (units <= 0) continue;
-        // March along the push until the voxel centre leaves the swept sphere.
+        // March along the push until the voxel centre leaves the swept sphere; for a
+        // sphere, start a voxel short of where the ray leaves it.
         Vec3d q = p;
+        if (a == b) {
+          const double along = (p - a).dot(dir);
+          const double exit_mm =
+              -along +
+              std::sqrt(std::max(0.0, along * along - (p - a).squaredNorm() + radius * radius));
+          const double skip_steps = std::floor(exit_mm / step_mm) - 2.0;
+          if (skip_steps > 0.0) q += skip_steps * step_mm * dir;
+        }
         openvdb::Coord target = source;
         for (int guard = 0; guard < 100000; ++guard) {
           q += step_mm * dir;

@@ -1,11 +1,15 @@
 #include "haptics/realtime.h"
 
 #include <pthread.h>
-#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <time.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -30,6 +34,32 @@ std::int64_t ns_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count();
 }
 
+double thread_cpu_s() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+long involuntary_switches() {
+  rusage usage{};
+  getrusage(RUSAGE_THREAD, &usage);
+  return usage.ru_nivcsw;
+}
+
+// Steal time of all CPUs (the "cpu" line of /proc/stat), seconds; 0 where unreadable.
+double machine_steal_s() {
+  std::ifstream stat("/proc/stat");
+  std::string line;
+  if (!std::getline(stat, line) || line.rfind("cpu ", 0) != 0) return 0.0;
+  std::istringstream fields(line.substr(4));
+  long long value = 0, steal = 0;
+  for (int i = 0; i < 8 && fields >> value; ++i) {
+    if (i == 7) steal = value;
+  }
+  const long ticks_per_s = sysconf(_SC_CLK_TCK);
+  return ticks_per_s > 0 ? static_cast<double>(steal) / static_cast<double>(ticks_per_s) : 0.0;
+}
+
 // Counters the relaxation thread publishes for the force thread's rows.
 struct RelaxCounters {
   std::atomic<std::uint64_t> deleted{0};
@@ -38,10 +68,14 @@ struct RelaxCounters {
 };
 
 void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
-                RelaxCounters& counters) {
+                RelaxCounters& counters, Clock::time_point start,
+                std::vector<std::int64_t>& slice_ns, std::vector<std::int64_t>& slice_start_ns,
+                double& cpu_s) {
+  const double cpu_start = thread_cpu_s();
   auto last_mass = Clock::now();
   while (true) {
     const bool finishing = force_done.load(std::memory_order_acquire);
+    const auto slice_begin = Clock::now();
     std::size_t did = 0;
     engine::SurfaceChange change;
     while (sculpt.channel->pop(change)) {
@@ -56,18 +90,34 @@ void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
       counters.mass_units.store(sculpt.mass->total_mass_units(), std::memory_order_relaxed);
       last_mass = Clock::now();
     }
+    if (did > 0) {
+      slice_start_ns.push_back(ns_between(start, slice_begin));
+      slice_ns.push_back(ns_between(slice_begin, Clock::now()));
+    }
     if (finishing) break;
     if (did == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
+  cpu_s = thread_cpu_s() - cpu_start;
 }
 
 }  // namespace
+
+DurationStats duration_stats(const std::vector<double>& values_us) {
+  DurationStats stats;
+  stats.count = values_us.size();
+  if (values_us.empty()) return stats;
+  stats.p50_us = percentile(values_us, 50.0);
+  stats.p99_us = percentile(values_us, 99.0);
+  stats.p999_us = percentile(values_us, 99.9);
+  stats.max_us = *std::max_element(values_us.begin(), values_us.end());
+  return stats;
+}
 
 ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, RealtimeSculpt* sculpt,
                               SculptSummary* sculpt_summary, TimingSummary* timing,
-                              const ForceThreadHooks* hooks) {
+                              const RealtimeOptions& options) {
   ReplaySummary summary;
   summary.ticks = device.tick_count();
   summary.trace_gaps = device.trace().gap_count;
@@ -97,17 +147,33 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   std::size_t nonfinite_forces = 0;
   std::size_t max_queue_depth = 0;
 
+  const ForceThreadHooks& hooks = options.hooks;
+  const std::int64_t period_ns = dt.count();
+  const auto watchdog_ns = static_cast<std::int64_t>(
+      std::llround(std::max(0.0, options.watchdog_periods) * static_cast<double>(period_ns)));
+  SchedulerReport scheduler;
+  prepare_process(options.scheduler, scheduler);
+  ThreadSetupCodes thread_codes;
+  std::size_t watchdog_trips = 0;
+  double force_cpu_s = 0.0;
+  long force_switches = 0;
+  std::vector<std::int64_t> relax_slice_ns, relax_slice_start_ns;
+  double relax_cpu_s = 0.0;
+  const double steal_before_s = machine_steal_s();
+
   const auto start = Clock::now() + std::chrono::milliseconds(5);
   std::thread force_thread([&] {
-    // Timer slack: the kernel may otherwise add ~50 us to every sleep (best effort).
-    prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
     pthread_setname_np(pthread_self(), "hapvox-force");
+    prepare_force_thread(options.scheduler, thread_codes);
     std::uint64_t deleted_before = 0, relaxed_before = 0;
-    if (hooks != nullptr && hooks->loop_started) hooks->loop_started();
+    const double cpu_start = thread_cpu_s();
+    const long switches_start = involuntary_switches();
+    if (hooks.loop_started) hooks.loop_started();
     for (std::size_t tick = 0; tick < summary.ticks; ++tick) {
       const auto deadline = start + tick * dt;
       wait_until(deadline);
       const auto begin = Clock::now();
+      if (hooks.before_tick) hooks.before_tick(tick);
       TickRecord& row = rows[tick];
       if (sculpt != nullptr) state.read_from(sculpt->field->acquire_for_reading());
       const bool nonfinite = run_force_stage(model, device, tick, limits, state,
@@ -128,9 +194,23 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       row.scheduled_ns = ns_between(start, deadline);
       row.start_ns = ns_between(start, begin);
       row.compute_ns = ns_between(begin, end);
+      if (row.start_ns + row.compute_ns > row.scheduled_ns + watchdog_ns) {
+        // Too late to be the force for this instant: send nothing rather than a stale push.
+        row.force_n = Vec3d::Zero();
+        row.watchdog = 1;
+        ++watchdog_trips;
+      }
       rows_done.store(tick + 1, std::memory_order_release);
     }
-    if (hooks != nullptr && hooks->loop_finished) hooks->loop_finished();
+    if (hooks.loop_finished) hooks.loop_finished();
+    force_cpu_s = thread_cpu_s() - cpu_start;
+    force_switches = involuntary_switches() - switches_start;
+    // Back to the ordinary policy before waiting on other threads: a SCHED_FIFO thread
+    // spinning on yield() would starve them on its CPU.
+    if (thread_codes.policy_errno == 0) {
+      sched_param normal{};
+      pthread_setschedparam(pthread_self(), SCHED_OTHER, &normal);
+    }
     if (sculpt != nullptr) {
       // Hand over what is still pending before the relaxation thread finishes.
       // Keep announcing the front buffer: the relaxation thread may be waiting for that
@@ -146,7 +226,8 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   if (sculpt != nullptr) {
     relax_thread = std::thread([&] {
       pthread_setname_np(pthread_self(), "hapvox-relax");
-      relax_loop(*sculpt, force_done, counters);
+      relax_loop(*sculpt, force_done, counters, start, relax_slice_ns, relax_slice_start_ns,
+                 relax_cpu_s);
     });
   }
 
@@ -168,15 +249,17 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   force_thread.join();
   if (relax_thread.joinable()) relax_thread.join();
   const auto wall_end = Clock::now();
+  release_process(scheduler);
+  describe_thread_setup(options.scheduler, thread_codes, scheduler);
 
   std::vector<double> compute_us(summary.ticks), lateness_us(summary.ticks);
-  std::size_t missed = 0;
-  const std::int64_t period_ns = dt.count();
+  std::size_t missed = 0, stalled = 0;
   for (std::size_t i = 0; i < summary.ticks; ++i) {
     const TickRecord& row = rows[i];
     compute_us[i] = 1e-3 * static_cast<double>(row.compute_ns);
     lateness_us[i] = 1e-3 * static_cast<double>(row.start_ns - row.scheduled_ns);
     if (row.start_ns + row.compute_ns > row.scheduled_ns + period_ns) ++missed;
+    if (row.start_ns - row.scheduled_ns > period_ns) ++stalled;
     summary.contact_ticks += row.contact;
     summary.clamped_ticks += row.clamped;
     summary.peak_force_n = std::max(summary.peak_force_n, row.force_n.norm());
@@ -188,15 +271,31 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   summary.compute_p99_us = percentile(compute_us, 99.0);
   summary.compute_max_us = *std::max_element(compute_us.begin(), compute_us.end());
   if (timing != nullptr) {
-    timing->lateness_p50_us = percentile(lateness_us, 50.0);
-    timing->lateness_p99_us = percentile(lateness_us, 99.0);
-    timing->lateness_p999_us = percentile(lateness_us, 99.9);
-    timing->lateness_max_us = *std::max_element(lateness_us.begin(), lateness_us.end());
+    timing->rate_hz = device.rate_hz();
+    timing->lateness = duration_stats(lateness_us);
     timing->missed_deadlines = missed;
+    timing->watchdog_trips = watchdog_trips;
+    timing->stalled_ticks = stalled;
+    timing->force_cpu_s = force_cpu_s;
+    timing->force_involuntary_switches = force_switches;
+    timing->machine_steal_s = std::max(0.0, machine_steal_s() - steal_before_s);
+    timing->scheduler = scheduler;
+    std::vector<double> slice_us(relax_slice_ns.size());
+    double busy_ns = 0.0;
+    for (std::size_t i = 0; i < slice_us.size(); ++i) {
+      slice_us[i] = 1e-3 * static_cast<double>(relax_slice_ns[i]);
+      busy_ns += static_cast<double>(relax_slice_ns[i]);
+    }
+    timing->relax_slice = duration_stats(slice_us);
+    timing->relax_cpu_s = relax_cpu_s;
+    timing->relax_slice_ns = std::move(relax_slice_ns);
+    timing->relax_slice_start_ns = std::move(relax_slice_start_ns);
     timing->wall_time_s = 1e-9 * static_cast<double>(ns_between(start, wall_end));
     timing->achieved_rate_hz =
         static_cast<double>(summary.ticks) /
         (1e-9 * static_cast<double>(rows.back().start_ns + rows.back().compute_ns));
+    timing->relax_busy_fraction =
+        timing->wall_time_s > 0.0 ? 1e-9 * busy_ns / timing->wall_time_s : 0.0;
   }
   if (sculpt != nullptr) {
     // The threads are joined: apply any last changes, no reader to wait for.

@@ -17,8 +17,12 @@
 #include <cstdint>
 #include <functional>
 
+#include <string>
+#include <vector>
+
 #include "haptics/double_buffered_field.h"
 #include "haptics/replay.h"
+#include "haptics/scheduler.h"
 
 namespace hapvox::haptics {
 
@@ -29,18 +33,52 @@ struct RealtimeSculpt {
   std::size_t relax_voxels_per_slice = 2000;
 };
 
+/// Median, tail and maximum of a set of durations, in microseconds.
+struct DurationStats {
+  std::size_t count = 0;
+  double p50_us = 0, p99_us = 0, p999_us = 0, max_us = 0;
+};
+
 struct TimingSummary {
-  double lateness_p50_us = 0, lateness_p99_us = 0, lateness_p999_us = 0, lateness_max_us = 0;
+  double rate_hz = 0;  // target
+  // Force thread. Lateness = actual start - scheduled start of a tick.
+  DurationStats lateness;
   std::size_t missed_deadlines = 0;  // ticks that ended after the next tick's deadline
+  std::size_t watchdog_trips = 0;    // ticks whose force was zeroed for overrunning
   double achieved_rate_hz = 0;
   double wall_time_s = 0;
+  double force_cpu_s = 0;               // force thread CPU time over the loop
+  long force_involuntary_switches = 0;  // times the kernel preempted the force thread
+  std::size_t stalled_ticks = 0;        // started more than a full period late
+  double machine_steal_s = 0;           // hypervisor steal time, all CPUs, over the run
+  SchedulerReport scheduler;
+  // Relaxation thread: one slice = apply queued deletions, relax a budget, publish.
+  DurationStats relax_slice;
+  double relax_busy_fraction = 0;  // time in slices / wall time
+  double relax_cpu_s = 0;
+  std::vector<std::int64_t> relax_slice_ns;  // every slice that did work, in order
+  std::vector<std::int64_t> relax_slice_start_ns;
 };
+
+/// Median, p99, p99.9 and maximum of `values_us` (reorders nothing; copies).
+DurationStats duration_stats(const std::vector<double>& values_us);
 
 /// Called on the force thread right before its first tick and right after its last one
 /// (tests use them to prove the loop does not allocate; profilers to tag the thread).
 struct ForceThreadHooks {
   std::function<void()> loop_started;
   std::function<void()> loop_finished;
+  /// Called at the start of every tick, before the force is computed (tests use it to
+  /// inject a stall). Empty in production.
+  std::function<void(std::size_t tick)> before_tick;
+};
+
+struct RealtimeOptions {
+  SchedulerOptions scheduler;
+  /// A tick that ends more than this many periods after its deadline sends zero force
+  /// (the device must never get a stale force) and counts a watchdog trip.
+  double watchdog_periods = 1.0;
+  ForceThreadHooks hooks;
 };
 
 /// Replays `device` in realtime. With `sculpt`, plastic changes flow to the relaxation
@@ -49,6 +87,6 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, RealtimeSculpt* sculpt,
                               SculptSummary* sculpt_summary, TimingSummary* timing,
-                              const ForceThreadHooks* hooks = nullptr);
+                              const RealtimeOptions& options = {});
 
 }  // namespace hapvox::haptics

@@ -75,6 +75,8 @@ SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
   ds_.compute_ns = create_column(timing, "compute_ns", H5T_STD_I64LE, 1, "ns");
   ds_.scheduled_ns = create_column(timing, "scheduled_ns", H5T_STD_I64LE, 1, "ns");
   ds_.start_ns = create_column(timing, "start_ns", H5T_STD_I64LE, 1, "ns");
+  ds_.lateness_ns = create_column(timing, "lateness_ns", H5T_STD_I64LE, 1, "ns");
+  ds_.watchdog = create_column(timing, "watchdog", H5T_STD_U8LE, 1, nullptr);
   H5Gclose(timing);
   const hid_t plastic = H5Gcreate2(file_, "plastic", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   ds_.strain = create_column(plastic, "strain", H5T_IEEE_F64LE, 1, "1");
@@ -121,7 +123,9 @@ void SessionWriter::close_datasets() {
                   ds_.relaxed_voxels,
                   ds_.total_mass_units,
                   ds_.scheduled_ns,
-                  ds_.start_ns}) {
+                  ds_.start_ns,
+                  ds_.lateness_ns,
+                  ds_.watchdog}) {
     H5Dclose(d);
   }
 }
@@ -215,6 +219,8 @@ void SessionWriter::flush_rows() {
   int_column(ds_.compute_ns, [](const TickRecord& r) { return r.compute_ns; });
   int_column(ds_.scheduled_ns, [](const TickRecord& r) { return r.scheduled_ns; });
   int_column(ds_.start_ns, [](const TickRecord& r) { return r.start_ns; });
+  int_column(ds_.lateness_ns, [](const TickRecord& r) { return r.start_ns - r.scheduled_ns; });
+  byte_column(ds_.watchdog, [](const TickRecord& r) { return r.watchdog; });
   scalar_column(ds_.strain, [](const TickRecord& r) { return r.strain; });
   scalar_column(ds_.stress_pa, [](const TickRecord& r) { return r.stress_measure_pa; });
   byte_column(ds_.zone, [](const TickRecord& r) { return r.zone; });
@@ -226,6 +232,19 @@ void SessionWriter::flush_rows() {
   rows_written_ += n;
   buffer_.clear();
   H5Fflush(file_, H5F_SCOPE_LOCAL);
+}
+
+void SessionWriter::write_array(const std::string& path, const std::vector<std::int64_t>& values,
+                                const char* unit) {
+  HAPVOX_CHECK(!closed_);
+  const hid_t dataset = create_column(file_, path.c_str(), H5T_STD_I64LE, 1, unit);
+  const hsize_t n = values.size();
+  if (n > 0) {
+    HAPVOX_CHECK(H5Dset_extent(dataset, &n) >= 0);
+    HAPVOX_CHECK(
+        H5Dwrite(dataset, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) >= 0);
+  }
+  H5Dclose(dataset);
 }
 
 void SessionWriter::close() {

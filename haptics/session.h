@@ -31,6 +31,7 @@ struct TickRecord {
   std::int64_t compute_ns = 0;
   std::int64_t scheduled_ns = 0;  // deadline of the tick, from the start of the run
   std::int64_t start_ns = 0;      // when its computation started (lockstep: = scheduled)
+  std::uint8_t watchdog = 0;      // realtime: force zeroed because the tick overran
   // Plasticity (zeros when off).
   double strain = 0.0;             // total strain of the contact
   double stress_measure_pa = 0.0;  // s = E |u| / L
@@ -57,6 +58,10 @@ class SessionWriter {
   void set_attribute(const std::string& name, std::int64_t value);
   void set_attribute(const std::string& name, const Vec3d& value);
 
+  /// Writes a one-off 1-D integer dataset (e.g. "timing/relax_slice_ns") with a unit.
+  void write_array(const std::string& path, const std::vector<std::int64_t>& values,
+                   const char* unit);
+
   /// Buffers the row; writes and flushes the file every flush_every_ticks rows.
   void append(const TickRecord& row);
   /// Writes what is buffered, marks the file complete and renames it to PATH.
@@ -79,7 +84,8 @@ class SessionWriter {
   struct Datasets {
     hid_t time_s, device_position_mm, tool_position_mm, force_n, displacement_mm, contact_area_mm2,
         contact, holding, clamped, compute_ns, strain, stress_pa, zone, plastic_event, queue_depth,
-        deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns;
+        deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns, lateness_ns,
+        watchdog;
   } ds_{};
   std::vector<TickRecord> buffer_;
   std::size_t rows_written_ = 0;

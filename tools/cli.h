@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <Eigen/Core>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,14 @@ const std::string& command_line();
 
 /// Registers each command on the top-level app.
 void add_replay_command(CLI::App& app);
+void add_check_timing_command(CLI::App& app);
+void add_report_command(CLI::App& app);
+
+/// `hapvox check-timing` found the loop outside its budget (exit code 3).
+class TimingBudgetBroken : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 void add_info_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_trace_command(CLI::App& app);

@@ -1,4 +1,6 @@
 // hapvox replay TRACE --volume FILE|GENERATOR -o SESSION.h5
+// hapvox check-timing TRACE --volume FILE|GENERATOR [budgets]: a realtime replay that
+// exits 1, saying why, when the loop broke a timing budget.
 
 #include <unistd.h>
 
@@ -30,7 +32,25 @@ struct ReplayFlags {
   std::size_t relax_voxels_per_tick = 2000;
   double relax_tolerance = 0.02;
   std::string sculpt_out;
+  // Realtime scheduling.
+  bool no_mlock = false;
+  bool no_rt_priority = false;
+  int cpu = -1;
+  bool no_pin = false;
+  double watchdog_periods = 1.0;
 };
+
+// What a replay measured, for the caller to judge.
+struct ReplayResult {
+  haptics::ReplaySummary summary;
+  haptics::TimingSummary timing;
+  haptics::SculptSummary sculpted;
+};
+
+void print_stats_line(const char* label, const haptics::DurationStats& d) {
+  std::printf("  %-16s p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us (%zu)\n", label,
+              d.p50_us, d.p99_us, d.p999_us, d.max_us, d.count);
+}
 
 std::string vec_text(const Eigen::Vector3d& v) {
   std::ostringstream out;
@@ -63,7 +83,7 @@ void print_progress(std::size_t done, std::size_t total) {
   if (done == total) std::fprintf(stderr, "\n");
 }
 
-void run_replay(const ReplayFlags& f, const std::string& command_line) {
+ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   // Check everything the user gave before reading big files or creating output.
   engine::validate_material(f.force.options.material, "--youngs-modulus-pa", "--poisson");
   const double diameter = f.force.options.tool.diameter_mm;
@@ -82,6 +102,14 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (!std::isfinite(f.limits.ramp_in_s) || f.limits.ramp_in_s < 0.0) {
     throw InputError("--ramp-in-s", "must be zero or positive");
   }
+  if (f.realtime && f.trace.rate_hz > 10e3) {
+    throw InputError("--rate-hz", "a realtime loop runs at most 10000 Hz");
+  }
+  if (!(f.watchdog_periods > 0.0) || !std::isfinite(f.watchdog_periods)) {
+    throw InputError("--watchdog-periods", "must be positive");
+  }
+  if (f.cpu < -1 || f.cpu >= 1024)
+    throw InputError("--cpu", "must be a CPU number (or -1 for the last)");
   check_output_path(f.output, "--output");
   if (!f.sculpt_out.empty()) {
     if (!f.plastic) throw InputError("--sculpt-out", "needs --plastic");
@@ -182,8 +210,15 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
     const haptics::ProgressFn progress =
         show_progress ? haptics::ProgressFn(print_progress) : haptics::ProgressFn();
     if (f.realtime) {
+      haptics::RealtimeOptions realtime_options;
+      realtime_options.scheduler.lock_memory = !f.no_mlock;
+      realtime_options.scheduler.realtime_policy = !f.no_rt_priority;
+      realtime_options.scheduler.pin_cpu = !f.no_pin;
+      realtime_options.scheduler.cpu = f.cpu;
+      realtime_options.watchdog_periods = f.watchdog_periods;
       s = haptics::replay_realtime(model, device, f.limits, &session, progress,
-                                   f.plastic ? &realtime_sculpt : nullptr, &sculpted, &timing);
+                                   f.plastic ? &realtime_sculpt : nullptr, &sculpted, &timing,
+                                   realtime_options);
     } else {
       s = haptics::replay_lockstep(model, device, f.limits, &session, progress,
                                    f.plastic ? &sculpt : nullptr, &sculpted);
@@ -201,13 +236,34 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   session.set_attribute("summary_compute_p50_us", s.compute_p50_us);
   session.set_attribute("summary_compute_p99_us", s.compute_p99_us);
   if (f.realtime) {
-    session.set_attribute("summary_lateness_p50_us", timing.lateness_p50_us);
-    session.set_attribute("summary_lateness_p99_us", timing.lateness_p99_us);
-    session.set_attribute("summary_lateness_p999_us", timing.lateness_p999_us);
-    session.set_attribute("summary_lateness_max_us", timing.lateness_max_us);
+    session.set_attribute("summary_lateness_p50_us", timing.lateness.p50_us);
+    session.set_attribute("summary_lateness_p99_us", timing.lateness.p99_us);
+    session.set_attribute("summary_lateness_p999_us", timing.lateness.p999_us);
+    session.set_attribute("summary_lateness_max_us", timing.lateness.max_us);
     session.set_attribute("summary_missed_deadlines",
                           static_cast<std::int64_t>(timing.missed_deadlines));
+    session.set_attribute("summary_watchdog_trips",
+                          static_cast<std::int64_t>(timing.watchdog_trips));
+    session.set_attribute("summary_stalled_ticks", static_cast<std::int64_t>(timing.stalled_ticks));
     session.set_attribute("summary_achieved_rate_hz", timing.achieved_rate_hz);
+    session.set_attribute("summary_wall_time_s", timing.wall_time_s);
+    session.set_attribute("summary_force_cpu_s", timing.force_cpu_s);
+    session.set_attribute("summary_force_involuntary_switches",
+                          static_cast<std::int64_t>(timing.force_involuntary_switches));
+    session.set_attribute("summary_machine_steal_s", timing.machine_steal_s);
+    session.set_attribute("scheduler_timer_slack", timing.scheduler.timer_slack);
+    session.set_attribute("scheduler_memory_lock", timing.scheduler.memory_lock);
+    session.set_attribute("scheduler_policy", timing.scheduler.policy);
+    session.set_attribute("scheduler_affinity", timing.scheduler.affinity);
+    session.set_attribute("watchdog_periods", f.watchdog_periods);
+    if (f.plastic) {
+      session.set_attribute("summary_relax_slice_p50_us", timing.relax_slice.p50_us);
+      session.set_attribute("summary_relax_slice_p99_us", timing.relax_slice.p99_us);
+      session.set_attribute("summary_relax_slice_max_us", timing.relax_slice.max_us);
+      session.set_attribute("summary_relax_busy_fraction", timing.relax_busy_fraction);
+      session.write_array("timing/relax_slice_ns", timing.relax_slice_ns, "ns");
+      session.write_array("timing/relax_slice_start_ns", timing.relax_slice_start_ns, "ns");
+    }
   }
   if (f.plastic) {
     session.set_attribute("summary_plastic_events",
@@ -238,11 +294,26 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   std::printf("  compute per tick p50 %.2f us, p99 %.2f us, max %.2f us (%d surface samples)\n",
               s.compute_p50_us, s.compute_p99_us, s.compute_max_us, model.surface_sample_count());
   if (f.realtime) {
+    print_stats_line("lateness", timing.lateness);
     std::printf(
-        "  lateness         p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us; "
-        "%zu missed deadlines; %.1f Hz achieved\n",
-        timing.lateness_p50_us, timing.lateness_p99_us, timing.lateness_p999_us,
-        timing.lateness_max_us, timing.missed_deadlines, timing.achieved_rate_hz);
+        "  deadlines        %zu missed (%.3f%%), %zu watchdog zero-force ticks, %.1f Hz "
+        "achieved of %.0f\n",
+        timing.missed_deadlines,
+        100.0 * timing.missed_deadlines / std::max<std::size_t>(1, s.ticks), timing.watchdog_trips,
+        timing.achieved_rate_hz, timing.rate_hz);
+    std::printf(
+        "  force thread     %.3f s CPU in %.3f s wall, preempted %ld times, %zu ticks started "
+        ">1 period late; machine steal %.3f s\n",
+        timing.force_cpu_s, timing.wall_time_s, timing.force_involuntary_switches,
+        timing.stalled_ticks, timing.machine_steal_s);
+    std::printf("  scheduler        timer slack %s; memory lock %s; policy %s; affinity %s\n",
+                timing.scheduler.timer_slack.c_str(), timing.scheduler.memory_lock.c_str(),
+                timing.scheduler.policy.c_str(), timing.scheduler.affinity.c_str());
+    if (f.plastic) {
+      print_stats_line("relax slices", timing.relax_slice);
+      std::printf("  relax thread     busy %.1f%% of the wall time, %.3f s CPU\n",
+                  100.0 * timing.relax_busy_fraction, timing.relax_cpu_s);
+    }
   }
   if (f.plastic) {
     std::printf(
@@ -269,21 +340,14 @@ void run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (s.nonfinite_forces > 0) {
     std::printf("  non-finite forces replaced by zero: %zu\n", s.nonfinite_forces);
   }
+  return ReplayResult{s, timing, sculpted};
 }
 
-}  // namespace
-
-void add_replay_command(CLI::App& app) {
-  auto flags = std::make_shared<ReplayFlags>();
-  CLI::App* cmd = app.add_subcommand(
-      "replay",
-      "Replay a probe trace against a volume on a simulated 1 kHz clock and record "
-      "the force the tool felt in an HDF5 session");
+void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
   cmd->add_option("trace", flags->trace_path, "Trace file (.csv or .h5)")->required();
   cmd->add_option("--volume,-v", flags->volume,
                   "Volume file (.nrrd, .nhdr, .vdb) or generator (block, sphere, four-spheres)")
       ->required();
-  cmd->add_option("--output,-o", flags->output, "Session file to write (.h5)")->required();
   cmd->add_option("--max-force-n", flags->limits.max_force_n, "Device force limit, N")
       ->capture_default_str();
   cmd->add_option("--ramp-in-s", flags->limits.ramp_in_s, "Force ramp-in time at start, s")
@@ -293,9 +357,6 @@ void add_replay_command(CLI::App& app) {
   flags->trace.add_to(*cmd);
   flags->transform.add_to(*cmd);
   flags->force.add_to(*cmd);
-  cmd->add_flag("--realtime", flags->realtime,
-                "Pace the force loop by the wall clock on its own thread (relaxation on a "
-                "second thread) instead of the simulated lockstep clock");
   cmd->add_flag("--plastic", flags->plastic,
                 "Sculpt: incremental plasticity, deletion and progressive relaxation");
   cmd->add_option("--yield-stress-pa", flags->force.options.plastic.yield_stress_pa,
@@ -312,9 +373,124 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--relax-tolerance", flags->relax_tolerance,
                   "Settled when no voxel exceeds normal density by more than this fraction")
       ->capture_default_str();
+  cmd->add_flag("--no-mlock", flags->no_mlock, "Realtime: do not lock memory");
+  cmd->add_flag("--no-rt-priority", flags->no_rt_priority,
+                "Realtime: do not ask for SCHED_FIFO for the force thread");
+  cmd->add_flag("--no-pin", flags->no_pin, "Realtime: do not pin the force thread to a CPU");
+  cmd->add_option("--cpu", flags->cpu, "Realtime: CPU for the force thread (-1: the last)")
+      ->capture_default_str();
+  cmd->add_option("--watchdog-periods", flags->watchdog_periods,
+                  "Realtime: a tick ending more than this many periods after its deadline "
+                  "sends zero force")
+      ->capture_default_str();
+}
+
+struct TimingBudget {
+  double max_p99_lateness_us = 250.0;
+  double max_miss_rate = 0.005;
+  double min_rate_ratio = 0.98;
+  double max_watchdog_rate = 0.005;
+};
+
+void run_check_timing(ReplayFlags f, const TimingBudget& budget, const std::string& command_line) {
+  if (!(budget.max_p99_lateness_us > 0.0)) {
+    throw InputError("--max-p99-lateness-us", "must be positive");
+  }
+  if (!(budget.max_miss_rate >= 0.0 && budget.max_miss_rate <= 1.0)) {
+    throw InputError("--max-miss-rate", "must lie in [0, 1]");
+  }
+  if (!(budget.min_rate_ratio >= 0.0 && budget.min_rate_ratio <= 1.0)) {
+    throw InputError("--min-rate-ratio", "must lie in [0, 1]");
+  }
+  if (!(budget.max_watchdog_rate >= 0.0 && budget.max_watchdog_rate <= 1.0)) {
+    throw InputError("--max-watchdog-rate", "must lie in [0, 1]");
+  }
+  f.realtime = true;
+  const ReplayResult r = run_replay(f, command_line);
+  const double ticks = static_cast<double>(std::max<std::size_t>(1, r.summary.ticks));
+  const double miss_rate = static_cast<double>(r.timing.missed_deadlines) / ticks;
+  const double watchdog_rate = static_cast<double>(r.timing.watchdog_trips) / ticks;
+  const double rate_ratio = r.timing.achieved_rate_hz / r.timing.rate_hz;
+  std::vector<std::string> broken;
+  char line[256];
+  auto check = [&](bool ok, const char* fmt, double value, double limit) {
+    std::snprintf(line, sizeof line, fmt, value, limit);
+    std::printf("  %s %s\n", ok ? "ok    " : "BROKEN", line);
+    if (!ok) broken.push_back(line);
+  };
+  std::printf("\ntiming budget\n");
+  check(r.timing.lateness.p99_us <= budget.max_p99_lateness_us,
+        "p99 lateness %.1f us (budget <= %.1f us)", r.timing.lateness.p99_us,
+        budget.max_p99_lateness_us);
+  check(miss_rate <= budget.max_miss_rate, "missed deadlines %.4f%% of ticks (budget <= %.4f%%)",
+        100.0 * miss_rate, 100.0 * budget.max_miss_rate);
+  check(watchdog_rate <= budget.max_watchdog_rate,
+        "watchdog zero-force ticks %.4f%% (budget <= %.4f%%)", 100.0 * watchdog_rate,
+        100.0 * budget.max_watchdog_rate);
+  check(rate_ratio >= budget.min_rate_ratio, "achieved rate %.4f of target (budget >= %.4f)",
+        rate_ratio, budget.min_rate_ratio);
+  // A shared machine can stall the whole process: say so, so nobody chases a phantom.
+  const double cpu_share =
+      r.timing.wall_time_s > 0 ? r.timing.force_cpu_s / r.timing.wall_time_s : 0;
+  std::printf("  force thread CPU %.3f s of %.3f s wall (%.0f%%, sleeping is normal)\n",
+              r.timing.force_cpu_s, r.timing.wall_time_s, 100.0 * cpu_share);
+  if (r.timing.machine_steal_s > 0.001 || r.timing.force_involuntary_switches > 0) {
+    std::printf(
+        "  warning: the machine itself stalled the loop: %ld preemptions of the force thread, "
+        "%.3f s of hypervisor steal time; lateness may come from the host, not hapvox\n",
+        r.timing.force_involuntary_switches, r.timing.machine_steal_s);
+  }
+  if (!broken.empty()) {
+    std::string why = "timing budget broken: " + broken.front();
+    for (std::size_t i = 1; i < broken.size(); ++i) why += "; " + broken[i];
+    throw TimingBudgetBroken(why);
+  }
+  std::printf("timing budget met\n");
+}
+
+}  // namespace
+
+void add_replay_command(CLI::App& app) {
+  auto flags = std::make_shared<ReplayFlags>();
+  CLI::App* cmd = app.add_subcommand(
+      "replay",
+      "Replay a probe trace against a volume on a simulated 1 kHz clock and record "
+      "the force the tool felt in an HDF5 session");
+  add_replay_flags(cmd, flags.get());
+  cmd->add_option("--output,-o", flags->output, "Session file to write (.h5)")->required();
+  cmd->add_flag("--realtime", flags->realtime,
+                "Pace the force loop by the wall clock on its own thread (relaxation on a "
+                "second thread) instead of the simulated lockstep clock");
   cmd->add_option("--sculpt-out", flags->sculpt_out,
                   "Write the sculpted volume as PREFIX.vdb and PREFIX.nrrd");
   cmd->callback([flags] { run_replay(*flags, command_line()); });
+}
+
+void add_check_timing_command(CLI::App& app) {
+  auto flags = std::make_shared<ReplayFlags>();
+  auto budget = std::make_shared<TimingBudget>();
+  CLI::App* cmd = app.add_subcommand(
+      "check-timing",
+      "Replay a trace in realtime and exit 1, saying why, if the force loop broke a timing "
+      "budget (for CI)");
+  add_replay_flags(cmd, flags.get());
+  cmd->add_option("--output,-o", flags->output, "Session file to write (.h5)")
+      ->default_str("check_timing.h5")
+      ->capture_default_str();
+  flags->output = "check_timing.h5";
+  cmd->add_option("--max-p99-lateness-us", budget->max_p99_lateness_us,
+                  "Budget: p99 of tick start lateness, us")
+      ->capture_default_str();
+  cmd->add_option("--max-miss-rate", budget->max_miss_rate,
+                  "Budget: fraction of ticks that end after the next deadline")
+      ->capture_default_str();
+  cmd->add_option("--min-rate-ratio", budget->min_rate_ratio,
+                  "Budget: achieved rate / target rate at least this")
+      ->capture_default_str();
+  cmd->add_option("--max-watchdog-rate", budget->max_watchdog_rate,
+                  "Budget: fraction of ticks the watchdog zeroed")
+      ->capture_default_str();
+  cmd->callback([flags, budget] { run_check_timing(*flags, *budget, command_line()); });
 }
 
 }  // namespace hapvox::cli

@@ -1,6 +1,7 @@
 // hapvox: touch, press and sculpt 3D images with a haptic tool.
 //
-// Exit codes: 0 success, 2 bad input (files, traces, flags, configs), 1 internal error.
+// Exit codes: 0 success, 1 internal error, 2 bad input (files, traces, flags, configs),
+// 3 check-timing: the force loop broke its timing budget.
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -23,6 +24,8 @@ int main(int argc, char** argv) {
   });
   hapvox::cli::set_command_line(argc, argv);
   hapvox::cli::add_replay_command(app);
+  hapvox::cli::add_check_timing_command(app);
+  hapvox::cli::add_report_command(app);
   hapvox::cli::add_info_command(app);
   hapvox::cli::add_bench_command(app);
   hapvox::cli::add_trace_command(app);
@@ -40,6 +43,9 @@ int main(int argc, char** argv) {
   } catch (const hapvox::InputError& e) {
     std::fprintf(stderr, "hapvox: error: %s\n", e.what());
     return 2;
+  } catch (const hapvox::cli::TimingBudgetBroken& e) {
+    std::fprintf(stderr, "hapvox: check-timing: %s\n", e.what());
+    return 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hapvox: internal error: %s\n", e.what());
     return 1;

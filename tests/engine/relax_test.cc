@@ -43,6 +43,37 @@ TEST(Relax, DeletionEmptiesTheToolAndPushesMaterialAhead) {
   EXPECT_GT(mass.max_density(), 1.5);
 }
 
+TEST(Relax, SweptDeletionEmptiesExactlyTheVoxelsWithinTheCapsule) {
+  // Straight, oblique, vertical and degenerate sweeps: the deletion
+  // only visits each column's span through the capsule, and must still find every voxel.
+  const DensityField field = generate_volume("block:dims=40,voxel_mm=1.0,fill=1.0");
+  const std::vector<std::pair<Vec3d, Vec3d>> sweeps = {{{20, 20, 20}, {20, 20, 20}},
+                                                       {{12, 20, 20}, {28, 20, 20}},
+                                                       {{20, 20, 12}, {20, 20, 28}},
+                                                       {{12.3, 14.1, 15.7}, {27.2, 25.9, 24.4}},
+                                                       {{20, 12, 25}, {21, 28, 14}}};
+  for (const auto& [from, to] : sweeps) {
+    for (const double radius : {2.5, 6.3}) {
+      MassGrid mass(field);
+      SurfaceChange change = change_at(to, Vec3d(0.2, -0.3, -1), radius);
+      change.from_mm = from;
+      int expected = 0;
+      for (int i = 0; i < 40; ++i)
+        for (int j = 0; j < 40; ++j)
+          for (int k = 0; k < 40; ++k) {
+            const Vec3d p(i, j, k);
+            const Vec3d ab = to - from;
+            const double t = ab.squaredNorm() > 0
+                                 ? std::clamp((p - from).dot(ab) / ab.squaredNorm(), 0.0, 1.0)
+                                 : 0.0;
+            if ((p - (from + t * ab)).norm() < radius) ++expected;
+          }
+      EXPECT_EQ(mass.apply_deletion(change), static_cast<std::size_t>(expected))
+          << from.transpose() << " -> " << to.transpose() << " r " << radius;
+    }
+  }
+}
+
 class RelaxRules : public ::testing::TestWithParam<RelaxRule> {};
 
 TEST_P(RelaxRules, MassIsConservedBitForBitOverThousandsOfEvents) {

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <thread>
+
 #include <atomic>
 #include <cstddef>
 #include <cstdlib>
@@ -83,7 +86,8 @@ struct RealtimeRun {
   std::uint64_t force_thread_allocations = ~0ull;
 };
 
-RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& session_path) {
+RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& session_path,
+                            RealtimeOptions realtime = {}) {
   const engine::DensityField field = engine::generate_volume("block:dims=48");
   DoubleBufferedField buffers(field);
   engine::ToolForceOptions options;
@@ -96,14 +100,14 @@ RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& sessio
   RealtimeSculpt sculpt{&mass, &buffers, &channel, 2000};
   RealtimeRun run;
   std::uint64_t at_start = 0;
-  ForceThreadHooks hooks;
-  hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
-  hooks.loop_finished = [&] {
+  realtime.hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
+  realtime.hooks.loop_finished = [&] {
     run.force_thread_allocations = allocations_on_this_thread - at_start;
   };
   SessionWriter session(session_path);
   run.summary = replay_realtime(model, device, DeviceLimits{}, &session, {}, &sculpt, &run.sculpt,
-                                &run.timing, &hooks);
+                                &run.timing, realtime);
+  session.write_array("timing/relax_slice_ns", run.timing.relax_slice_ns, "ns");
   session.close();
   return run;
 }
@@ -130,6 +134,59 @@ TEST(Realtime, SculptingWithTwoThreadsConservesMassAndRecordsEveryTick) {
   for (double m : read_session_column(dir + "/rt.h5", "/relax/total_mass_units")) {
     ASSERT_EQ(static_cast<std::int64_t>(m), run.sculpt.initial_mass_units);
   }
+}
+
+TEST(Realtime, RecordsLatenessReportsTheSchedulerAndTimesTheRelaxationThread) {
+  const std::string dir = testing::scratch_dir();
+  const RealtimeRun run = sculpt_realtime(clay_device(1000.0, 20.0), dir + "/rt.h5");
+  const auto scheduled = read_session_column(dir + "/rt.h5", "/timing/scheduled_ns");
+  const auto started = read_session_column(dir + "/rt.h5", "/timing/start_ns");
+  const auto lateness = read_session_column(dir + "/rt.h5", "/timing/lateness_ns");
+  ASSERT_EQ(lateness.size(), scheduled.size());
+  for (std::size_t i = 0; i < lateness.size(); ++i) {
+    ASSERT_EQ(lateness[i], started[i] - scheduled[i]);
+  }
+  EXPECT_EQ(run.timing.lateness.count, scheduled.size());
+  EXPECT_LE(run.timing.lateness.p50_us, run.timing.lateness.p99_us);
+  EXPECT_LE(run.timing.lateness.p99_us, run.timing.lateness.max_us);
+  EXPECT_DOUBLE_EQ(run.timing.rate_hz, 1000.0);
+  EXPECT_GT(run.timing.force_cpu_s, 0.0);
+  // Every step of the scheduler is reported as granted or refused with a reason.
+  for (const std::string& line :
+       {run.timing.scheduler.timer_slack, run.timing.scheduler.memory_lock,
+        run.timing.scheduler.policy, run.timing.scheduler.affinity}) {
+    EXPECT_TRUE(line.rfind("on (", 0) == 0 || line.rfind("off: ", 0) == 0) << line;
+  }
+  // The relaxation thread's slices are timed and recorded.
+  EXPECT_GT(run.timing.relax_slice.count, 0u);
+  EXPECT_EQ(read_session_column(dir + "/rt.h5", "/timing/relax_slice_ns").size(),
+            run.timing.relax_slice.count);
+  EXPECT_GT(run.timing.relax_busy_fraction, 0.0);
+  EXPECT_LT(run.timing.relax_busy_fraction, 1.0);
+}
+
+TEST(Realtime, WatchdogSendsZeroForceAfterAnOverrunAndTheLoopRecovers) {
+  const std::string dir = testing::scratch_dir();
+  RealtimeOptions options;
+  const std::size_t stall_tick = 700;  // in contact (pressing)
+  options.hooks.before_tick = [&](std::size_t tick) {
+    if (tick == stall_tick) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  };
+  const RealtimeRun run = sculpt_realtime(clay_device(1000.0, 20.0), dir + "/rt.h5", options);
+  const auto watchdog = read_session_column(dir + "/rt.h5", "/timing/watchdog");
+  const auto force = read_session_column(dir + "/rt.h5", "/force_n");
+  const auto contact = read_session_column(dir + "/rt.h5", "/contact");
+  ASSERT_EQ(contact[stall_tick], 1.0);
+  EXPECT_EQ(watchdog[stall_tick], 1.0);
+  for (int a = 0; a < 3; ++a) EXPECT_EQ(force[3 * stall_tick + a], 0.0);
+  EXPECT_GE(run.timing.watchdog_trips, 1u);
+  EXPECT_GE(run.timing.missed_deadlines, 1u);
+  EXPECT_GE(run.timing.stalled_ticks, 1u);  // the ticks after it started > 1 ms late
+  // The loop catches up: 100 ticks later forces flow again and start on time.
+  const std::size_t later = stall_tick + 100;
+  ASSERT_EQ(contact[later], 1.0);
+  EXPECT_EQ(watchdog[later], 0.0);
+  EXPECT_GT(std::abs(force[3 * later + 2]), 0.0);
 }
 
 TEST(Realtime, ForceLoopDoesNotAllocateAfterStart) {

@@ -66,8 +66,8 @@ std::string engine_nrrd() { return source_path("data/engine_256x256x128_uint8.nr
 std::string press_trace() { return source_path("traces/engine_press.csv"); }
 
 TEST(HapvoxCli, HelpOnEveryCommand) {
-  for (const char* command :
-       {"", "replay", "info", "bench", "bench force", "trace", "trace make"}) {
+  for (const char* command : {"", "replay", "info", "bench", "bench force", "bench plastic",
+                              "trace", "trace make", "check-timing", "report"}) {
     const Result r = run(std::string(command) + " --help");
     EXPECT_EQ(r.exit_code, 0) << command;
     EXPECT_NE(r.out.find("Usage:"), std::string::npos) << command;
@@ -302,6 +302,52 @@ TEST(HapvoxCli, BenchForcePrintsTheTable) {
   EXPECT_NE(r.out.find("ours Hz"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("naive Hz"), std::string::npos);
   EXPECT_NE(r.out.find("seed Hz"), std::string::npos);
+}
+
+TEST(HapvoxCli, CheckTimingPassesARelaxedBudgetAndFailsAnImpossibleOne) {
+  const std::string dir = scratch_dir();
+  const std::string common = "check-timing " + press_trace() + " --volume " + engine_nrrd();
+  const Result relaxed = run(common + " -o " + dir + "/ok.h5 --max-p99-lateness-us 100000 " +
+                             "--max-miss-rate 0.5 --min-rate-ratio 0.5 --max-watchdog-rate 0.5");
+  EXPECT_EQ(relaxed.exit_code, 0) << relaxed.out << relaxed.err;
+  EXPECT_NE(relaxed.out.find("timing budget met"), std::string::npos) << relaxed.out;
+  EXPECT_NE(relaxed.out.find("force thread CPU"), std::string::npos) << relaxed.out;
+  EXPECT_TRUE(fs::exists(dir + "/ok.h5"));
+  // No loop starts a tick less than a femtosecond late.
+  const Result impossible = run(common + " -o " + dir + "/bad.h5 --max-p99-lateness-us 1e-9");
+  EXPECT_EQ(impossible.exit_code, 3) << impossible.out << impossible.err;
+  EXPECT_EQ(impossible.err.rfind("hapvox: check-timing: timing budget broken: p99 lateness ", 0),
+            0u)
+      << impossible.err;
+  EXPECT_NE(impossible.out.find("BROKEN p99 lateness"), std::string::npos) << impossible.out;
+  // The session is kept for a post-mortem either way.
+  EXPECT_TRUE(fs::exists(dir + "/bad.h5"));
+  expect_input_error(common + " -o " + dir + "/x.h5 --max-miss-rate 2",
+                     "--max-miss-rate: must lie in [0, 1]");
+  expect_input_error(common + " -o " + dir + "/x.h5 --rate-hz 20000",
+                     "--rate-hz: a realtime loop runs at most 10000 Hz");
+}
+
+bool is_png(const std::string& path) {
+  const std::string bytes = slurp(path);
+  return bytes.size() > 10000 && bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0;
+}
+
+TEST(HapvoxCli, ReportDrawsForceLatenessAndRelaxation) {
+  const std::string dir = scratch_dir();
+  const std::string session = dir + "/clay.h5";
+  const Result replay = run("replay " + source_path("traces/clay_stroke.csv") +
+                            " --volume block --plastic --realtime -q -o " + session);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  const Result r = run("report " + session + " -o " + dir);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  for (const char* name : {"force.png", "lateness.png", "relax.png"}) {
+    EXPECT_TRUE(is_png(dir + "/" + name)) << name;
+    EXPECT_NE(r.out.find(name), std::string::npos) << r.out;
+  }
+  expect_input_error("report " + dir + "/missing.h5 -o " + dir, dir + "/missing.h5: no such file");
+  expect_input_error("report " + session + " -o " + dir + "/nowhere",
+                     dir + "/nowhere: output directory does not exist");
 }
 
 }  // namespace
