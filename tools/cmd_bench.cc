@@ -1,5 +1,8 @@
 // hapvox bench force: force-computation rates for tool diameters 16/32/64 voxels, ours
 // beside a naive per-voxel-accessor baseline in the same run and the seed's Table 1.
+// hapvox bench plastic: deletion rates and relaxation after a press.
+// hapvox bench table1: both, one table with the seeds' figures and ratios, written as CSV
+// and JSON with a description of the machine.
 // Timing comes from Google Benchmark (repetitions, medians); this file only sets up the
 // scenes and prints the table.
 
@@ -14,8 +17,15 @@
 #include <map>
 #include <sstream>
 
+#include <sys/utsname.h>
+#include <unistd.h>
+
+#include <ctime>
+
 #include "engine/errors.h"
 #include "engine/relax.h"
+#include "engine/version.h"
+#include "haptics/session.h"
 #include "tools/cli.h"
 
 namespace hapvox::cli {
@@ -116,12 +126,22 @@ engine::DensityField make_half_block(int n) {
                               Eigen::Vector3i::Constant(n));
 }
 
+// One line of the Table 1 reproduction.
+struct Table1Row {
+  std::string measure;  // "force", "deletion", "relaxation"
+  int volume = 0;       // edge length, voxels
+  int diameter = 0;     // tool diameter, voxels
+  std::string unit;     // "Hz", "voxels/s"
+  double ours = NAN, naive = NAN, seed = NAN;
+  std::string note;
+};
+
 struct Row {
   int size, diameter, samples;
   double ours_hz, naive_hz;
 };
 
-void run_bench_force(const BenchFlags& f) {
+std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
   const std::vector<int> sizes = parse_int_list(f.sizes, "--sizes");
   const std::vector<int> diameters = parse_int_list(f.diameters, "--diameters");
   if (!(f.min_time_s > 0.0)) throw InputError("--min-time-s", "must be positive");
@@ -182,6 +202,12 @@ void run_bench_force(const BenchFlags& f) {
       rows.push_back(row);
     }
   }
+  std::vector<Table1Row> table;
+  for (const Row& row : rows) {
+    table.push_back({"force", row.size, row.diameter, "Hz", row.ours_hz, row.naive_hz,
+                     seed_force_rate_hz(row.size, row.diameter),
+                     std::to_string(row.samples) + " surface samples"});
+  }
   if (!f.csv.empty()) {
     std::ofstream out(f.csv + ".partial");
     out << "volume,diameter_voxels,surface_samples,ours_hz,naive_hz,seed_hz\n";
@@ -193,6 +219,7 @@ void run_bench_force(const BenchFlags& f) {
     std::filesystem::rename(f.csv + ".partial", f.csv);
     std::printf("\nwrote %s\n", f.csv.c_str());
   }
+  return table;
 }
 
 // The seed's deletion, voxel by voxel through tree-level reads and writes (no cached
@@ -237,7 +264,8 @@ struct PlasticBenchFlags {
   double max_relax_s = 30.0;
 };
 
-void run_bench_plastic(const PlasticBenchFlags& f) {
+std::vector<Table1Row> run_bench_plastic(const PlasticBenchFlags& f) {
+  std::vector<Table1Row> table;
   const std::vector<int> diameters = parse_int_list(f.diameters, "--diameters");
   if (f.size < 64) throw InputError("--size", "must be at least 64");
   if (!(f.min_time_s > 0.0)) throw InputError("--min-time-s", "must be positive");
@@ -285,6 +313,7 @@ void run_bench_plastic(const PlasticBenchFlags& f) {
     const double ours_hz = 1e9 / median_ns["ours"];
     const double naive_hz = 1e9 / median_ns["naive"];
     const double seed = seed_deletion_hz.count(d) ? seed_deletion_hz.at(d) : NAN;
+    table.push_back({"deletion", n, d, "Hz", ours_hz, naive_hz, seed, ""});
     std::printf("%9d %12.0f %12.0f %9.1fx %10.0f %8.1fx\n", d, ours_hz, naive_hz,
                 ours_hz / naive_hz, seed, ours_hz / seed);
     std::fflush(stdout);
@@ -295,37 +324,187 @@ void run_bench_plastic(const PlasticBenchFlags& f) {
   std::printf(
       "\nrelaxation after a diameter-32 press 8 mm deep, until no voxel exceeds 1.02 "
       "(seed: 217,000 voxels/s)\n");
-  std::printf("%-16s %9s %10s %12s %12s %14s %10s\n", "rule", "settled", "time s", "voxels",
-              "voxels/s", "flow visits/s", "mass");
+  std::printf("%-16s %9s %12s %12s %12s %14s %10s\n", "rule", "settled", "settle s", "relaxed",
+              "flow visits", "voxels/s", "mass");
   const std::int64_t mass_before = engine::MassGrid(field).total_mass_units();
+  Table1Row relax_row{"relaxation", n, 32, "voxels/s", NAN, NAN, 217000.0, ""};
+  Table1Row settle_row{"settle", n, 32, "s", NAN, NAN, NAN, ""};
   for (const engine::RelaxRule rule :
        {engine::RelaxRule::kFlowToRoom, engine::RelaxRule::kPaperDiffusion}) {
-    engine::RelaxOptions options;
-    options.rule = rule;
-    engine::MassGrid mass(field, options);
-    engine::SurfaceChange press;
-    press.direction = Eigen::Vector3d(0, 0, -1);
-    press.radius_mm = 16.0;
-    press.from_mm = Eigen::Vector3d(0.5 * n, 0.5 * n, face + 16.0);
-    press.position_mm = Eigen::Vector3d(0.5 * n, 0.5 * n, face + 16.0 - 8.0);
-    using Clock = std::chrono::steady_clock;
-    mass.apply_deletion(press);
-    const auto t1 = Clock::now();
-    std::size_t relaxed = 0;
-    std::vector<openvdb::Coord> changes;  // drained as a publisher would
-    const auto give_up = t1 + std::chrono::duration<double>(f.max_relax_s);
-    while (!mass.settled() && Clock::now() < give_up) {
-      relaxed += mass.relax(100000);
-      mass.take_changes(changes);
+    const bool ours = rule == engine::RelaxRule::kFlowToRoom;
+    // Ours settles in milliseconds: the median of several presses. The paper's rule runs
+    // once, until it settles or --max-relax-s.
+    const int runs = ours ? std::max(3, f.repetitions) : 1;
+    std::vector<double> settle_s, rate;
+    bool all_settled = true, exact = true;
+    std::size_t relaxed = 0, visits = 0;
+    for (int run = 0; run < runs; ++run) {
+      engine::RelaxOptions options;
+      options.rule = rule;
+      engine::MassGrid mass(field, options);
+      engine::SurfaceChange press;
+      press.direction = Eigen::Vector3d(0, 0, -1);
+      press.radius_mm = 16.0;
+      press.from_mm = Eigen::Vector3d(0.5 * n, 0.5 * n, face + 16.0);
+      press.position_mm = Eigen::Vector3d(0.5 * n, 0.5 * n, face + 16.0 - 8.0);
+      using Clock = std::chrono::steady_clock;
+      mass.apply_deletion(press);
+      const auto t1 = Clock::now();
+      std::vector<openvdb::Coord> changes;  // drained as a publisher would
+      const auto give_up = t1 + std::chrono::duration<double>(f.max_relax_s);
+      while (!mass.settled() && Clock::now() < give_up) {
+        mass.relax(100000);
+        mass.take_changes(changes);
+      }
+      const double seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+      all_settled = all_settled && mass.settled();
+      exact = exact && mass.total_mass_units() == mass_before;
+      relaxed = mass.work().relaxed_voxels;
+      visits = mass.work().flow_visits;
+      settle_s.push_back(seconds);
+      // Voxels relaxed plus voxels the flow visited: every voxel the relaxation touched.
+      rate.push_back(static_cast<double>(relaxed + visits) / seconds);
     }
-    const bool settled = mass.settled();
-    const double relax_s = std::chrono::duration<double>(Clock::now() - t1).count();
-    std::printf("%-16s %9s %10.3f %12zu %12.0f %14.0f %10s\n",
-                rule == engine::RelaxRule::kFlowToRoom ? "ours (flow)" : "paper (diffuse)",
-                settled ? "yes" : "NO", relax_s, relaxed, relaxed / relax_s,
-                static_cast<double>(mass.work().flow_visits) / relax_s,
-                mass.total_mass_units() == mass_before ? "exact" : "CHANGED");
+    const double median_s = haptics::percentile(settle_s, 50.0);
+    const double median_rate = haptics::percentile(rate, 50.0);
+    std::printf("%-16s %9s %12.4f %12zu %12zu %14.0f %10s\n",
+                ours ? "ours (flow)" : "paper (diffuse)", all_settled ? "yes" : "NO", median_s,
+                relaxed, visits, median_rate, exact ? "exact" : "CHANGED");
     std::fflush(stdout);
+    char note[160];
+    std::snprintf(note, sizeof note, "%s: %s after %.4f s", ours ? "ours" : "naive (paper rule)",
+                  all_settled ? "settled" : "not settled", median_s);
+    (ours ? relax_row.ours : relax_row.naive) = median_rate;
+    (ours ? settle_row.ours : settle_row.naive) = all_settled ? median_s : INFINITY;
+    relax_row.note += (relax_row.note.empty() ? "" : "; ") + std::string(note);
+  }
+  settle_row.note = relax_row.note;
+  table.push_back(relax_row);
+  table.push_back(settle_row);
+  return table;
+}
+
+std::string read_first_line_with(const std::string& path, const std::string& key) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(key, 0) == 0) {
+      const auto colon = line.find(':');
+      return colon == std::string::npos ? line
+                                        : line.substr(line.find_first_not_of(" \t", colon + 1));
+    }
+  }
+  return "unknown";
+}
+
+std::vector<std::pair<std::string, std::string>> machine_description() {
+  std::vector<std::pair<std::string, std::string>> m;
+  m.emplace_back("cpu", read_first_line_with("/proc/cpuinfo", "model name"));
+  m.emplace_back("online_cpus", std::to_string(sysconf(_SC_NPROCESSORS_ONLN)));
+  m.emplace_back("memory", read_first_line_with("/proc/meminfo", "MemTotal"));
+  utsname u{};
+  if (uname(&u) == 0)
+    m.emplace_back("kernel", std::string(u.sysname) + " " + u.release + " " + u.machine);
+  m.emplace_back("compiler", "gcc " __VERSION__);
+#ifdef NDEBUG
+  m.emplace_back("build", "release (NDEBUG)");
+#else
+  m.emplace_back("build", "debug");
+#endif
+  for (const auto& [name, version] : haptics::library_versions()) m.emplace_back(name, version);
+  char date[64];
+  const std::time_t now = std::time(nullptr);
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  m.emplace_back("date", date);
+  return m;
+}
+
+std::string json_string(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream out;
+  out.precision(10);
+  out << v;
+  return out.str();
+}
+
+// Writes PATH.partial, then renames: a failed run leaves no half-written file.
+void write_atomically(const std::string& path, const std::string& text) {
+  {
+    std::ofstream out(path + ".partial");
+    out << text;
+    if (!out) throw InputError(path, "cannot write");
+  }
+  std::filesystem::rename(path + ".partial", path);
+}
+
+struct Table1Flags {
+  BenchFlags force;
+  PlasticBenchFlags plastic;
+  std::string csv, json;
+};
+
+void run_bench_table1(Table1Flags f) {
+  if (!f.csv.empty()) check_output_path(f.csv, "--csv");
+  if (!f.json.empty()) check_output_path(f.json, "--json");
+  f.force.csv.clear();
+  f.plastic.min_time_s = f.force.min_time_s;
+  f.plastic.repetitions = f.force.repetitions;
+  const auto machine = machine_description();
+  std::printf("Table 1 of both Prados seeds, reproduced on this machine\n");
+  for (const auto& [key, value] : machine) std::printf("  %-12s %s\n", key.c_str(), value.c_str());
+  std::printf("\n");
+  std::vector<Table1Row> rows = run_bench_force(f.force);
+  std::printf("\n");
+  for (const Table1Row& row : run_bench_plastic(f.plastic)) rows.push_back(row);
+
+  std::printf("\nsummary (medians; ratios ours/seed and ours/naive)\n");
+  std::printf("%-11s %7s %9s %9s %13s %13s %13s %10s %10s\n", "measure", "volume", "diameter",
+              "unit", "ours", "naive", "seed", "ours/seed", "ours/naive");
+  std::ostringstream csv;
+  csv << "measure,volume,diameter_voxels,unit,ours,naive,seed,ours_over_seed,ours_over_naive,"
+         "note\n";
+  std::ostringstream json;
+  json << "{\n  \"machine\": {";
+  for (std::size_t i = 0; i < machine.size(); ++i) {
+    json << (i ? ", " : "") << json_string(machine[i].first) << ": "
+         << json_string(machine[i].second);
+  }
+  json << "},\n  \"rows\": [\n";
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const Table1Row& r = rows[i];
+    std::printf("%-11s %6d^3 %9d %9s %13.6g %13.6g %13.6g %9.3gx %9.3gx\n", r.measure.c_str(),
+                r.volume, r.diameter, r.unit.c_str(), r.ours, r.naive, r.seed, r.ours / r.seed,
+                r.ours / r.naive);
+    csv << r.measure << "," << r.volume << "," << r.diameter << "," << r.unit << ","
+        << json_number(r.ours) << "," << json_number(r.naive) << "," << json_number(r.seed) << ","
+        << json_number(r.ours / r.seed) << "," << json_number(r.ours / r.naive) << ",\"" << r.note
+        << "\"\n";
+    json << "    {\"measure\": " << json_string(r.measure) << ", \"volume\": " << r.volume
+         << ", \"diameter_voxels\": " << r.diameter << ", \"unit\": " << json_string(r.unit)
+         << ", \"ours\": " << json_number(r.ours) << ", \"naive\": " << json_number(r.naive)
+         << ", \"seed\": " << json_number(r.seed) << ", \"note\": " << json_string(r.note) << "}"
+         << (i + 1 < rows.size() ? "," : "") << "\n";
+  }
+  json << "  ]\n}\n";
+  std::string machine_csv;
+  for (const auto& [key, value] : machine) machine_csv += "# " + key + ": " + value + "\n";
+  if (!f.csv.empty()) {
+    write_atomically(f.csv, machine_csv + csv.str());
+    std::printf("\nwrote %s\n", f.csv.c_str());
+  }
+  if (!f.json.empty()) {
+    write_atomically(f.json, json.str());
+    std::printf("wrote %s\n", f.json.c_str());
   }
 }
 
@@ -366,6 +545,37 @@ void add_bench_command(CLI::App& app) {
       ->add_option("--max-relax-s", plastic_flags->max_relax_s, "Give up relaxing after this long")
       ->capture_default_str();
   plastic->callback([plastic_flags] { run_bench_plastic(*plastic_flags); });
+
+  auto table_flags = std::make_shared<Table1Flags>();
+  CLI::App* table1 = bench->add_subcommand(
+      "table1",
+      "Both seeds' Table 1: force rates (diameters x volumes), plastic deletion rates and "
+      "relaxation voxels/s, ours beside a naive baseline and the seeds, as CSV/JSON with the "
+      "machine description");
+  table1->add_option("--sizes", table_flags->force.sizes, "Volume edge lengths for the force rates")
+      ->capture_default_str();
+  table1->add_option("--diameters", table_flags->force.diameters, "Tool diameters, voxels")
+      ->capture_default_str();
+  table1
+      ->add_option("--plastic-size", table_flags->plastic.size,
+                   "Volume edge length for deletion and relaxation")
+      ->capture_default_str();
+  table1->add_option("--min-time-s", table_flags->force.min_time_s, "Minimum time per measurement")
+      ->capture_default_str();
+  table1
+      ->add_option("--repetitions", table_flags->force.repetitions,
+                   "Repetitions (the median is reported)")
+      ->capture_default_str();
+  table1
+      ->add_option("--max-relax-s", table_flags->plastic.max_relax_s,
+                   "Give up relaxing after this long")
+      ->capture_default_str();
+  table1->add_option("--csv", table_flags->csv, "Write the summary as CSV");
+  table1->add_option("--json", table_flags->json, "Write the summary and machine as JSON");
+  table1->callback([table_flags] {
+    table_flags->plastic.diameters = table_flags->force.diameters;
+    run_bench_table1(*table_flags);
+  });
 }
 
 }  // namespace hapvox::cli

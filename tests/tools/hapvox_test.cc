@@ -304,6 +304,28 @@ TEST(HapvoxCli, BenchForcePrintsTheTable) {
   EXPECT_NE(r.out.find("seed Hz"), std::string::npos);
 }
 
+TEST(HapvoxCli, BenchTable1WritesCsvAndJsonWithTheMachine) {
+  const std::string dir = scratch_dir();
+  const Result r =
+      run("bench table1 --sizes 64 --diameters 16 --plastic-size 64 --min-time-s 0.01 "
+          "--repetitions 1 --max-relax-s 0.5 --csv " +
+          dir + "/t1.csv --json " + dir + "/t1.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* measure : {"force ", "deletion ", "relaxation ", "settle "}) {
+    EXPECT_NE(r.out.find(std::string("\n") + measure), std::string::npos) << measure << r.out;
+  }
+  const std::string csv = slurp(dir + "/t1.csv");
+  EXPECT_NE(csv.find("# cpu: "), std::string::npos) << csv;
+  EXPECT_NE(csv.find("measure,volume,diameter_voxels,unit,ours,naive,seed"), std::string::npos);
+  EXPECT_NE(csv.find("\ndeletion,64,16,Hz,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",2000,"), std::string::npos) << csv;  // the seed's deletion rate
+  // The JSON parses, and carries the machine and four rows.
+  const std::string check =
+      "/usr/bin/python3 -c \"import json,sys; d=json.load(open('" + dir +
+      "/t1.json')); assert d['machine']['online_cpus']; assert len(d['rows']) == 4, d\"";
+  EXPECT_EQ(std::system(check.c_str()), 0);
+}
+
 TEST(HapvoxCli, CheckTimingPassesARelaxedBudgetAndFailsAnImpossibleOne) {
   const std::string dir = scratch_dir();
   const std::string common = "check-timing " + press_trace() + " --volume " + engine_nrrd();
