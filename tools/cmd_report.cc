@@ -12,6 +12,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <system_error>
 
 #include "engine/errors.h"
 #include "haptics/session.h"
@@ -40,14 +42,19 @@ void run_report(const ReportFlags& f) {
   }
   const haptics::SessionInfo info = haptics::read_session_info(f.session);
   if (info.rows == 0) throw InputError(f.session, "the session has no rows");
-  if (!std::filesystem::is_directory(f.out_dir)) {
-    throw InputError(f.out_dir, "output directory does not exist");
-  }
   const std::string probe = quoted(f.python) + " -c 'import matplotlib, h5py, numpy' 2>/dev/null";
   if (std::system(probe.c_str()) != 0) {
     throw InputError("--python", f.python +
                                      " cannot import matplotlib, h5py and numpy (install "
                                      "python3-matplotlib python3-h5py; scripts/setup.sh does)");
+  }
+  // The pictures' directory (and its parents) is made when missing, as `-o plots/` on a
+  // fresh clone expects; only once everything else has been checked.
+  std::error_code error;
+  std::filesystem::create_directories(f.out_dir, error);
+  if (!std::filesystem::is_directory(f.out_dir)) {
+    throw InputError(f.out_dir, "cannot create the output directory" +
+                                    (error ? " (" + error.message() + ")" : std::string()));
   }
   const std::filesystem::path script = std::filesystem::temp_directory_path() /
                                        ("hapvox_report_" + std::to_string(getpid()) + ".py");
@@ -76,7 +83,8 @@ void add_report_command(CLI::App& app) {
       "Draw a session: force.png, lateness.png (realtime) and relax.png (plastic) into a "
       "directory");
   cmd->add_option("session", flags->session, "Session file (.h5)")->required();
-  cmd->add_option("--output,-o", flags->out_dir, "Directory for the pictures")
+  cmd->add_option("--output,-o", flags->out_dir,
+                  "Directory for the pictures (made, with its parents, when missing)")
       ->capture_default_str();
   cmd->add_option("--python", flags->python, "Python with matplotlib and h5py")
       ->capture_default_str();

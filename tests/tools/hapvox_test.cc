@@ -361,15 +361,23 @@ TEST(HapvoxCli, ReportDrawsForceLatenessAndRelaxation) {
   const Result replay = run("replay " + source_path("traces/clay_stroke.csv") +
                             " --volume block --plastic --realtime -q -o " + session);
   ASSERT_EQ(replay.exit_code, 0) << replay.err;
-  const Result r = run("report " + session + " -o " + dir);
+  // The README's `-o plots/` on a fresh clone: the directory and its parents are made.
+  const std::string plots = dir + "/not/yet/plots";
+  ASSERT_FALSE(fs::exists(dir + "/not"));
+  const Result r = run("report " + session + " -o " + plots + "/");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   for (const char* name : {"force.png", "lateness.png", "relax.png"}) {
-    EXPECT_TRUE(is_png(dir + "/" + name)) << name;
+    EXPECT_TRUE(is_png(plots + "/" + name)) << name;
     EXPECT_NE(r.out.find(name), std::string::npos) << r.out;
   }
   expect_input_error("report " + dir + "/missing.h5 -o " + dir, dir + "/missing.h5: no such file");
-  expect_input_error("report " + session + " -o " + dir + "/nowhere",
-                     dir + "/nowhere: output directory does not exist");
+  // A bad session makes no directory.
+  const Result bad = run("report " + dir + "/missing.h5 -o " + dir + "/unmade");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_FALSE(fs::exists(dir + "/unmade"));
+  write_file(dir + "/plain", "a file, not a directory");
+  expect_input_error("report " + session + " -o " + dir + "/plain/plots",
+                     dir + "/plain/plots: cannot create the output directory (Not a directory)");
 }
 
 }  // namespace
