@@ -1,6 +1,6 @@
 // hapvox replay TRACE --volume FILE|GENERATOR -o SESSION.h5
 // hapvox check-timing TRACE --volume FILE|GENERATOR [budgets]: a realtime replay that
-// exits 1, saying why, when the loop broke a timing budget.
+// exits 3, saying why, when the loop broke a timing budget (2: bad input, 1: internal error).
 
 #include <unistd.h>
 
@@ -471,8 +471,8 @@ void add_check_timing_command(CLI::App& app) {
   auto budget = std::make_shared<TimingBudget>();
   CLI::App* cmd = app.add_subcommand(
       "check-timing",
-      "Replay a trace in realtime and exit 1, saying why, if the force loop broke a timing "
-      "budget (for CI)");
+      "Replay a trace in realtime and exit 3, saying why, if the force loop broke a timing "
+      "budget (for CI; 2 is bad input)");
   add_replay_flags(cmd, flags.get());
   cmd->add_option("--output,-o", flags->output, "Session file to write (.h5)")
       ->default_str("check_timing.h5")

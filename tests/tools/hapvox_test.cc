@@ -72,6 +72,10 @@ TEST(HapvoxCli, HelpOnEveryCommand) {
     EXPECT_EQ(r.exit_code, 0) << command;
     EXPECT_NE(r.out.find("Usage:"), std::string::npos) << command;
   }
+  // The exit code check-timing documents is the one it returns for a broken budget.
+  const Result timing = run("check-timing --help");
+  EXPECT_NE(timing.out.find("exit 3"), std::string::npos) << timing.out;
+  EXPECT_EQ(timing.out.find("exit 1"), std::string::npos) << timing.out;
 }
 
 TEST(HapvoxCli, MainJobReplaysTheEngineAndWritesASession) {
