@@ -1,8 +1,8 @@
 // hapvox bench force: force-computation rates for tool diameters 16/32/64 voxels, ours
 // beside a naive per-voxel-accessor baseline in the same run and the seed's Table 1.
 // hapvox bench plastic: deletion rates and relaxation after a press.
-// hapvox bench table1: both, one table with the seeds' figures and ratios, written as CSV
-// and JSON with a description of the machine.
+// hapvox bench table1 (or plain `hapvox bench`, same options): both, one table with the
+// seeds' figures and ratios, written as CSV and JSON with a description of the machine.
 // Timing comes from Google Benchmark (repetitions, medians); this file only sets up the
 // scenes and prints the table.
 
@@ -15,6 +15,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include <sys/utsname.h>
@@ -454,6 +455,7 @@ struct Table1Flags {
 };
 
 void run_bench_table1(Table1Flags f) {
+  f.plastic.diameters = f.force.diameters;
   if (!f.csv.empty()) check_output_path(f.csv, "--csv");
   if (!f.json.empty()) check_output_path(f.json, "--json");
   f.force.csv.clear();
@@ -508,11 +510,37 @@ void run_bench_table1(Table1Flags f) {
   }
 }
 
+// Registers table1's options on `cmd`; with `with_callback`, `cmd` runs table1.
+std::shared_ptr<Table1Flags> add_table1_options(CLI::App* cmd, bool with_callback = true) {
+  auto flags = std::make_shared<Table1Flags>();
+  cmd->add_option("--sizes", flags->force.sizes, "Volume edge lengths for the force rates")
+      ->capture_default_str();
+  cmd->add_option("--diameters", flags->force.diameters, "Tool diameters, voxels")
+      ->capture_default_str();
+  cmd->add_option("--plastic-size", flags->plastic.size,
+                  "Volume edge length for deletion and relaxation")
+      ->capture_default_str();
+  cmd->add_option("--min-time-s", flags->force.min_time_s, "Minimum time per measurement")
+      ->capture_default_str();
+  cmd->add_option("--repetitions", flags->force.repetitions,
+                  "Repetitions (the median is reported)")
+      ->capture_default_str();
+  cmd->add_option("--max-relax-s", flags->plastic.max_relax_s, "Give up relaxing after this long")
+      ->capture_default_str();
+  cmd->add_option("--csv", flags->csv, "Write the summary as CSV");
+  cmd->add_option("--json", flags->json, "Write the summary and machine as JSON");
+  if (with_callback) cmd->callback([flags] { run_bench_table1(*flags); });
+  return flags;
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app) {
-  CLI::App* bench = app.add_subcommand("bench", "Benchmarks, ours beside a naive baseline");
-  bench->require_subcommand(1);
+  CLI::App* bench = app.add_subcommand(
+      "bench",
+      "Benchmarks, ours beside a naive baseline; without a subcommand, what `bench table1` "
+      "runs (both seeds' Table 1), with its options");
+  bench->require_subcommand(0, 1);
   auto flags = std::make_shared<BenchFlags>();
   CLI::App* force = bench->add_subcommand(
       "force", "Force-computation rate for tool diameters 16/32/64 voxels (Prados Table 1)");
@@ -546,35 +574,29 @@ void add_bench_command(CLI::App& app) {
       ->capture_default_str();
   plastic->callback([plastic_flags] { run_bench_plastic(*plastic_flags); });
 
-  auto table_flags = std::make_shared<Table1Flags>();
+  // `hapvox bench table1`, and plain `hapvox bench` (issue 4: one command reproduces
+  // both seeds' Table 1) with the same options and defaults.
   CLI::App* table1 = bench->add_subcommand(
       "table1",
       "Both seeds' Table 1: force rates (diameters x volumes), plastic deletion rates and "
       "relaxation voxels/s, ours beside a naive baseline and the seeds, as CSV/JSON with the "
       "machine description");
-  table1->add_option("--sizes", table_flags->force.sizes, "Volume edge lengths for the force rates")
-      ->capture_default_str();
-  table1->add_option("--diameters", table_flags->force.diameters, "Tool diameters, voxels")
-      ->capture_default_str();
-  table1
-      ->add_option("--plastic-size", table_flags->plastic.size,
-                   "Volume edge length for deletion and relaxation")
-      ->capture_default_str();
-  table1->add_option("--min-time-s", table_flags->force.min_time_s, "Minimum time per measurement")
-      ->capture_default_str();
-  table1
-      ->add_option("--repetitions", table_flags->force.repetitions,
-                   "Repetitions (the median is reported)")
-      ->capture_default_str();
-  table1
-      ->add_option("--max-relax-s", table_flags->plastic.max_relax_s,
-                   "Give up relaxing after this long")
-      ->capture_default_str();
-  table1->add_option("--csv", table_flags->csv, "Write the summary as CSV");
-  table1->add_option("--json", table_flags->json, "Write the summary and machine as JSON");
-  table1->callback([table_flags] {
-    table_flags->plastic.diameters = table_flags->force.diameters;
-    run_bench_table1(*table_flags);
+  add_table1_options(table1);
+  const auto plain_flags = add_table1_options(bench, false);
+  bench->callback([bench, plain_flags] {
+    if (bench->get_subcommands().empty()) run_bench_table1(*plain_flags);
+  });
+  // Checked once bench's command line is parsed, before any benchmark runs (subcommands'
+  // callbacks come first): plain bench's options given before a subcommand are refused.
+  bench->parse_complete_callback([bench] {
+    if (bench->get_subcommands().empty()) return;
+    for (const CLI::Option* option : bench->get_options()) {
+      if (option->count() > 0 && option->get_name() != "--help") {
+        throw InputError(option->get_name(),
+                         "before a subcommand: bench's own options are table1's, for plain "
+                         "`hapvox bench`; put them after the subcommand");
+      }
+    }
   });
 }
 
