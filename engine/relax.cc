@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "engine/check.h"
 
@@ -84,7 +85,9 @@ MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
       dims_(field.dims()),
       threshold_units_(static_cast<std::int32_t>(
           std::floor(kNormalDensityUnits * (1.0 + std::max(0.0, options.tolerance))))),
-      rule_(options.rule) {
+      rule_(options.rule),
+      flow_visits_per_voxel_(options.flow_visits_per_voxel) {
+  HAPVOX_CHECK_GE(flow_visits_per_voxel_, std::size_t{1});
   for (auto it = field.grid().cbeginValueOn(); it; ++it) {
     const auto units = static_cast<std::int32_t>(std::lround(*it * kNormalDensityUnits));
     if (units <= 0) continue;
@@ -105,7 +108,7 @@ std::int64_t MassGrid::total_mass_units() const {
   for (auto it = grid_->cbeginValueOn(); it; ++it) {
     sum += static_cast<std::int64_t>(*it) * static_cast<std::int64_t>(it.getVoxelCount());
   }
-  return sum;
+  return sum + flowing_units();
 }
 
 void MassGrid::set(const openvdb::Coord& ijk, std::int32_t units) {
@@ -290,6 +293,12 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
 }
 
 std::size_t MassGrid::relax(std::size_t max_voxels) {
+  const std::size_t max_visits =
+      max_voxels > SIZE_MAX / flow_visits_per_voxel_ ? SIZE_MAX
+                                                     : max_voxels * flow_visits_per_voxel_;
+  // A search cut short by the last call's budget goes on first: its mass is outside the
+  // grid until it lands.
+  std::size_t visits = flow_active_ ? advance_flow(max_visits) : 0;
   std::size_t done = 0;
   while (done < max_voxels && !queue_.empty()) {
     const Entry top = queue_.top();
@@ -299,30 +308,51 @@ std::size_t MassGrid::relax(std::size_t max_voxels) {
     relax_voxel(top.ijk, current);
     ++done;
   }
-  // The pool is mass outside the grid: it flows before returning, so the total is exact
-  // between calls.
-  if (pool_units_ > 0) flow_pool_to_room();
+  // What no neighbour could take flows with what is left of the visits; while a search is
+  // still in flight it waits for the next one.
+  if (!flow_active_ && pool_units_ > 0 && visits < max_visits) {
+    start_flow();
+    visits += advance_flow(max_visits - visits);
+  }
   work_.relaxed_voxels += done;
-  return done;
+  return done + visits;
 }
 
-void MassGrid::flow_pool_to_room() {
+void MassGrid::finish_flows() {
+  while (flow_active_ || pool_units_ > 0) {
+    if (!flow_active_) start_flow();
+    advance_flow(SIZE_MAX);
+  }
+}
+
+void MassGrid::start_flow() {
   // Breadth-first from all pool sources at once, 6-connected, through voxels holding
   // material (a filled empty voxel becomes material and the search goes on through it),
   // never through the tool. Deterministic: sources in relaxation order, neighbours in a
   // fixed order.
-  static constexpr int kSteps[6][3] = {{0, 0, 1},  {0, 0, -1}, {1, 0, 0},
-                                       {-1, 0, 0}, {0, 1, 0},  {0, -1, 0}};
-  auto visited = flow_visited_->getAccessor();
+  HAPVOX_CHECK(!flow_active_ && pool_units_ > 0 && !pool_sources_.empty());
+  flow_active_ = true;
+  flow_units_ = pool_units_;
+  pool_units_ = 0;
+  flow_first_source_ = pool_sources_.front();
   flow_queue_.clear();
+  flow_head_ = 0;
   for (const openvdb::Coord& ijk : pool_sources_) {
-    if (visited.isValueOn(ijk)) continue;
-    visited.setValueOn(ijk);
+    if (flow_visited_accessor_.isValueOn(ijk)) continue;
+    flow_visited_accessor_.setValueOn(ijk);
     flow_queue_.push_back(ijk);
   }
-  std::size_t head = 0;
-  while (pool_units_ > 0 && head < flow_queue_.size()) {
-    const openvdb::Coord u = flow_queue_[head++];
+  pool_sources_.clear();
+}
+
+std::size_t MassGrid::advance_flow(std::size_t max_steps) {
+  static constexpr int kSteps[6][3] = {{0, 0, 1},  {0, 0, -1}, {1, 0, 0},
+                                       {-1, 0, 0}, {0, 1, 0},  {0, -1, 0}};
+  auto& visited = flow_visited_accessor_;
+  std::size_t steps = 0;
+  while (flow_units_ > 0 && flow_head_ < flow_queue_.size() && steps < max_steps) {
+    const openvdb::Coord u = flow_queue_[flow_head_++];
+    ++steps;
     for (const auto& step : kSteps) {
       const openvdb::Coord n = u.offsetBy(step[0], step[1], step[2]);
       if (visited.isValueOn(n)) continue;
@@ -331,32 +361,40 @@ void MassGrid::flow_pool_to_room() {
       std::int32_t units = accessor_.getValue(n);
       if (units < kNormalDensityUnits && !carved_accessor_.isValueOn(n)) {
         const std::int64_t deposit =
-            std::min<std::int64_t>(kNormalDensityUnits - units, pool_units_);
+            std::min<std::int64_t>(kNormalDensityUnits - units, flow_units_);
         units += static_cast<std::int32_t>(deposit);
-        pool_units_ -= deposit;
+        flow_units_ -= deposit;
         set(n, units);
       }
       if (units > 0) flow_queue_.push_back(n);
-      if (pool_units_ == 0) break;
+      if (flow_units_ == 0) break;
     }
   }
-  work_.flow_visits += head;
-  ++work_.flows;
-  if (pool_units_ > 0) {
+  work_.flow_visits += steps;
+  if (flow_units_ == 0 || flow_head_ == flow_queue_.size()) end_flow();
+  return steps;
+}
+
+void MassGrid::end_flow() {
+  if (flow_units_ > 0) {
     // Sealed in by the tool (no reachable room): the rest goes back where it came from
     // and waits for the tool to move.
-    const openvdb::Coord back = pool_sources_.front();
-    const std::int64_t units = std::int64_t{accessor_.getValue(back)} + pool_units_;
+    const openvdb::Coord back = flow_first_source_;
+    const std::int64_t units = std::int64_t{accessor_.getValue(back)} + flow_units_;
     HAPVOX_CHECK_LE(units, std::int64_t{INT32_MAX});
     set(back, static_cast<std::int32_t>(units));
     walled_in_.push_back(back);
-    pool_units_ = 0;
+    flow_units_ = 0;
   }
-  pool_sources_.clear();
+  flow_active_ = false;
+  flow_queue_.clear();
+  flow_head_ = 0;
   flow_visited_->clear();
+  ++work_.flows;
 }
 
 bool MassGrid::settled() {
+  if (flow_active_ || pool_units_ > 0) return false;
   for (const openvdb::Coord& ijk : walled_in_) {
     if (accessor_.getValue(ijk) > threshold_units_) return false;
   }

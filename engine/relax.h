@@ -16,12 +16,12 @@
 //      their room, remainders by a fixed order; material neighbours before empty ones).
 //      What they cannot take:
 //        - RelaxRule::kFlowToRoom (default): receivers are also capped at the normal
-//          density, and the rest joins a pool that flows, at the end of the call, to the
-//          room nearest the over-dense voxels: a breadth-first search from all of them
-//          through material (never through the tool) fills every voxel below the normal
-//          density it reaches, nearest first, until the pool is empty. Clay is nearly
-//          incompressible, so material pushed into the bulk appears at the nearest free
-//          surface, as the rim around a pressed tool; the volume settles in one pass.
+//          density, and the rest joins a pool that flows to the room nearest the
+//          over-dense voxels: a breadth-first search from all of them through material
+//          (never through the tool) fills every voxel below the normal density it reaches,
+//          nearest first, until the pool is empty. Clay is nearly incompressible, so
+//          material pushed into the bulk appears at the nearest free surface, as the rim
+//          around a pressed tool; the volume settles in one pass.
 //          Voxels the tool carved out are not room: clay does not flow back into the
 //          groove behind a moving tool (only a later deletion's push can refill them).
 //        - RelaxRule::kPaperDiffusion: the rest is spread evenly over the neighbourhood
@@ -30,6 +30,15 @@
 //          distance to the surface (kept as the benchmark's baseline).
 //      Voxels inside the tool never receive material; excess walled in by the tool waits
 //      until the next deletion moves the tool.
+//
+//      Bounded work: relax(n) relaxes at most n active voxels and lets the flow's search
+//      expand at most n * RelaxOptions::flow_visits_per_voxel voxels (besides popping
+//      stale queue entries, each paid for by the push that made it). A search the budget
+//      cuts short resumes where it stopped at the start of the next call; the pool that
+//      voxels relaxed meanwhile make waits for the next search. The pool in flight is
+//      counted in total_mass_units(), so the total stays exact between calls, and the same
+//      sequence of calls gives the same grid (lockstep replays are bit-identical).
+//      finish_flows() completes the flows at the end of a run so the grid holds it all.
 //
 // Not thread-safe: one relaxation thread (or the lockstep loop) owns a MassGrid.
 
@@ -52,6 +61,9 @@ struct RelaxOptions {
   /// Settled when no voxel exceeds the normal density by more than this fraction.
   double tolerance = 0.02;
   RelaxRule rule = RelaxRule::kFlowToRoom;
+  /// Voxels the flow-to-room search may expand per voxel of relax()'s budget (a visit
+  /// reads 6 neighbours, a relaxed voxel 26 and tests each against the tool). At least 1.
+  std::size_t flow_visits_per_voxel = 8;
 };
 
 struct RelaxWork {
@@ -67,17 +79,25 @@ class MassGrid {
   /// Fixed-point copy of `field`: q = round(rho * kNormalDensityUnits).
   MassGrid(const DensityField& field, const RelaxOptions& options = {});
 
-  /// Exact total mass in fixed-point units.
+  /// Exact total mass in fixed-point units: the grid plus the pool still flowing.
   std::int64_t total_mass_units() const;
 
   /// Paper step 1. Returns the number of voxels emptied.
   std::size_t apply_deletion(const SurfaceChange& change);
 
-  /// Paper step 2: processes up to `max_voxels` active voxels. Returns how many it did.
+  /// Paper step 2: relaxes at most `max_voxels` active voxels; the flow's search expands at
+  /// most max_voxels * flow_visits_per_voxel voxels. Returns voxels relaxed plus voxels
+  /// the search expanded: 0 when there was nothing to do.
   std::size_t relax(std::size_t max_voxels);
 
-  /// True when no voxel exceeds the normal density plus the tolerance.
+  /// Runs the flow in flight, and the one waiting, to the end (no budget): the grid then
+  /// holds all the mass. For the end of a run, before the volume is written.
+  void finish_flows();
+
+  /// True when no voxel exceeds the normal density plus the tolerance and no pool flows.
   bool settled();
+  /// Mass still flowing to room (not yet in the grid), fixed-point units.
+  std::int64_t flowing_units() const { return flow_units_ + pool_units_; }
   /// Active voxels waiting (including stale queue entries; an upper bound).
   std::size_t queued() const { return queue_.size(); }
   /// Largest density in the grid, in units of the normal density.
@@ -119,7 +139,9 @@ class MassGrid {
   void activate_if_over(const openvdb::Coord& ijk, std::int32_t units);
   bool inside_tool(const openvdb::Coord& ijk) const;
   void relax_voxel(const openvdb::Coord& ijk, std::int32_t units);
-  void flow_pool_to_room();
+  void start_flow();
+  std::size_t advance_flow(std::size_t max_steps);
+  void end_flow();
 
   openvdb::Int32Grid::Ptr grid_;
   openvdb::Int32Grid::Accessor accessor_;
@@ -128,18 +150,25 @@ class MassGrid {
   Vec3i dims_;
   std::int32_t threshold_units_;
   RelaxRule rule_;
+  std::size_t flow_visits_per_voxel_;
   std::priority_queue<Entry> queue_;
   std::vector<openvdb::Coord> changed_;
   // Voxels already in changed_, so each is listed (and published) once.
   openvdb::MaskGrid::Ptr listed_ = openvdb::MaskGrid::create(false);
   openvdb::MaskGrid::Accessor listed_accessor_ = listed_->getAccessor();
   RelaxWork work_;
-  // Flow to room: excess waiting to flow, the voxels it came from, the search's queue and
-  // visited set (kept between calls so a warmed-up grid does not allocate for them).
+  // Flow to room: excess waiting for the next search and the voxels it came from; the
+  // search in flight (its pool, first source, queue with its head, visited set), kept
+  // between calls so it can resume and a warmed-up grid does not allocate for it.
   std::int64_t pool_units_ = 0;
   std::vector<openvdb::Coord> pool_sources_;
+  bool flow_active_ = false;
+  std::int64_t flow_units_ = 0;
+  openvdb::Coord flow_first_source_;
   std::vector<openvdb::Coord> flow_queue_;
+  std::size_t flow_head_ = 0;
   openvdb::MaskGrid::Ptr flow_visited_ = openvdb::MaskGrid::create(false);
+  openvdb::MaskGrid::Accessor flow_visited_accessor_ = flow_visited_->getAccessor();
   // Voxels emptied by deletions (and not refilled by one since): never room for the flow.
   openvdb::MaskGrid::Ptr carved_ = openvdb::MaskGrid::create(false);
   openvdb::MaskGrid::Accessor carved_accessor_ = carved_->getAccessor();

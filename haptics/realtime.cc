@@ -70,19 +70,18 @@ struct RelaxCounters {
 void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
                 RelaxCounters& counters, Clock::time_point start,
                 std::vector<std::int64_t>& slice_ns, std::vector<std::int64_t>& slice_start_ns,
-                double& cpu_s) {
+                double& cpu_s, RelaxStageWork& max_slice_work) {
   const double cpu_start = thread_cpu_s();
   auto last_mass = Clock::now();
   while (true) {
     const bool finishing = force_done.load(std::memory_order_acquire);
     const auto slice_begin = Clock::now();
-    std::size_t did = 0;
-    engine::SurfaceChange change;
-    while (sculpt.channel->pop(change)) {
-      sculpt.mass->apply_deletion(change);
-      ++did;
-    }
-    did += sculpt.mass->relax(sculpt.relax_voxels_per_slice);
+    const RelaxStageWork work = run_relax_stage(*sculpt.mass, *sculpt.channel,
+                                                sculpt.max_deletions_per_slice,
+                                                sculpt.relax_voxels_per_slice);
+    max_slice_work.deletions = std::max(max_slice_work.deletions, work.deletions);
+    max_slice_work.relax_steps = std::max(max_slice_work.relax_steps, work.relax_steps);
+    const std::size_t did = work.deletions + work.relax_steps;
     if (sculpt.mass->has_changes()) sculpt.field->publish(*sculpt.mass, force_done);
     counters.deleted.store(sculpt.mass->work().deleted_voxels, std::memory_order_relaxed);
     counters.relaxed.store(sculpt.mass->work().relaxed_voxels, std::memory_order_relaxed);
@@ -159,6 +158,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   long force_switches = 0;
   std::vector<std::int64_t> relax_slice_ns, relax_slice_start_ns;
   double relax_cpu_s = 0.0;
+  RelaxStageWork max_slice_work;
   const double steal_before_s = machine_steal_s();
 
   const auto start = Clock::now() + std::chrono::milliseconds(5);
@@ -227,7 +227,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     relax_thread = std::thread([&] {
       pthread_setname_np(pthread_self(), "hapvox-relax");
       relax_loop(*sculpt, force_done, counters, start, relax_slice_ns, relax_slice_start_ns,
-                 relax_cpu_s);
+                 relax_cpu_s, max_slice_work);
     });
   }
 
@@ -288,6 +288,8 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     }
     timing->relax_slice = duration_stats(slice_us);
     timing->relax_cpu_s = relax_cpu_s;
+    timing->relax_slice_max_deletions = max_slice_work.deletions;
+    timing->relax_slice_max_steps = max_slice_work.relax_steps;
     timing->relax_slice_ns = std::move(relax_slice_ns);
     timing->relax_slice_start_ns = std::move(relax_slice_start_ns);
     timing->wall_time_s = 1e-9 * static_cast<double>(ns_between(start, wall_end));
@@ -299,8 +301,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   }
   if (sculpt != nullptr) {
     // The threads are joined: apply any last changes, no reader to wait for.
-    engine::SurfaceChange change;
-    while (sculpt->channel->pop(change)) sculpt->mass->apply_deletion(change);
+    drain_relaxation(*sculpt->mass, *sculpt->channel);
     sculpt->field->publish_unsynchronized(*sculpt->mass);
     sculpted.plastic_events = plastic_events;
     sculpted.queue_overflows = sculpt->channel->overflows();

@@ -7,8 +7,10 @@
 //                    tick: pick the field buffer to read, step the model, make the force
 //                    safe, push any surface change, fill the preallocated row. No locks,
 //                    no allocation, no I/O, no exceptions after start.
-//   relax thread     deletions, a slice of relaxation, publication of changed voxels into
-//                    the back buffer of a DoubleBufferedField; exact mass measured
+//   relax thread     slices of bounded work (run_relax_stage: at most
+//                    max_deletions_per_slice deletions, then at most relax_voxels_per_slice
+//                    relaxation steps), each followed by the publication of changed voxels
+//                    into the back buffer of a DoubleBufferedField; exact mass measured
 //                    every ~50 ms.
 //   calling thread   appends finished rows to the session (~10 times a second) and
 //                    reports progress.
@@ -30,7 +32,8 @@ struct RealtimeSculpt {
   engine::MassGrid* mass = nullptr;
   DoubleBufferedField* field = nullptr;  // the model must read field->buffer(0)
   SurfaceChangeChannel* channel = nullptr;
-  std::size_t relax_voxels_per_slice = 2000;
+  std::size_t relax_voxels_per_slice = 2000;  // relaxation steps per slice (MassGrid::relax)
+  std::size_t max_deletions_per_slice = 8;    // queued surface changes applied per slice
 };
 
 /// Median, tail and maximum of a set of durations, in microseconds.
@@ -56,6 +59,8 @@ struct TimingSummary {
   DurationStats relax_slice;
   double relax_busy_fraction = 0;  // time in slices / wall time
   double relax_cpu_s = 0;
+  std::size_t relax_slice_max_deletions = 0;  // most deletions one slice applied
+  std::size_t relax_slice_max_steps = 0;      // most relaxation steps one slice took
   std::vector<std::int64_t> relax_slice_ns;  // every slice that did work, in order
   std::vector<std::int64_t> relax_slice_start_ns;
 };

@@ -63,6 +63,24 @@ bool run_force_stage(const engine::ToolForceModel& model, const TraceDevice& dev
   return nonfinite;
 }
 
+RelaxStageWork run_relax_stage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
+                               std::size_t max_deletions, std::size_t relax_budget) {
+  RelaxStageWork work;
+  engine::SurfaceChange change;
+  while (work.deletions < max_deletions && channel.pop(change)) {
+    mass.apply_deletion(change);
+    ++work.deletions;
+  }
+  work.relax_steps = mass.relax(relax_budget);
+  return work;
+}
+
+void drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel) {
+  engine::SurfaceChange change;
+  while (channel.pop(change)) mass.apply_deletion(change);
+  mass.finish_flows();
+}
+
 ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, SculptContext* sculpt,
@@ -103,9 +121,8 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
       sculpted.max_queue_depth = std::max<std::size_t>(sculpted.max_queue_depth, row.queue_depth);
       // Relaxation stage: deletions first (highest priority), then a fixed budget.
       const engine::RelaxWork before = sculpt->mass->work();
-      engine::SurfaceChange change;
-      while (sculpt->channel->pop(change)) sculpt->mass->apply_deletion(change);
-      sculpt->mass->relax(sculpt->relax_voxels_per_tick);
+      run_relax_stage(*sculpt->mass, *sculpt->channel, sculpt->max_deletions_per_tick,
+                      sculpt->relax_voxels_per_tick);
       if (sculpt->mass->publish_changes(*sculpt->mirror) > 0) state.invalidate_cache();
       row.deleted_voxels =
           static_cast<std::int64_t>(sculpt->mass->work().deleted_voxels - before.deleted_voxels);
@@ -129,8 +146,7 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
   if (sculpt != nullptr) {
     // Whatever the channel still holds is applied before the summary.
     sculpt->channel->flush();
-    engine::SurfaceChange change;
-    while (sculpt->channel->pop(change)) sculpt->mass->apply_deletion(change);
+    drain_relaxation(*sculpt->mass, *sculpt->channel);
     sculpt->mass->publish_changes(*sculpt->mirror);
     sculpted.queue_overflows = sculpt->channel->overflows();
     sculpted.deleted_voxels = sculpt->mass->work().deleted_voxels;

@@ -74,8 +74,9 @@ struct SculptContext {
   engine::MassGrid* mass = nullptr;
   engine::DensityField* mirror = nullptr;
   SurfaceChangeChannel* channel = nullptr;
-  std::size_t relax_voxels_per_tick = 2000;
-  std::size_t mass_every_ticks = 10;  // exact total mass measured every N ticks
+  std::size_t relax_voxels_per_tick = 2000;  // relaxation steps per tick (MassGrid::relax)
+  std::size_t max_deletions_per_tick = 8;    // queued surface changes applied per tick
+  std::size_t mass_every_ticks = 10;         // exact total mass measured every N ticks
 };
 
 struct SculptSummary {
@@ -98,6 +99,23 @@ bool run_force_stage(const engine::ToolForceModel& model, const TraceDevice& dev
                      std::size_t tick, const DeviceLimits& limits, engine::ToolForceState& state,
                      SurfaceChangeChannel* channel, TickRecord& row);
 
+/// What one relaxation stage did.
+struct RelaxStageWork {
+  std::size_t deletions = 0;    // surface changes applied
+  std::size_t relax_steps = 0;  // MassGrid::relax steps
+};
+
+/// The relaxation stage of one lockstep tick or one realtime slice, the same code in both,
+/// with bounded work so the relaxation stays responsive: at most `max_deletions` queued
+/// surface changes applied (highest priority; the rest wait in the channel for the next
+/// stage), then at most `relax_budget` relaxation steps.
+RelaxStageWork run_relax_stage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
+                               std::size_t max_deletions, std::size_t relax_budget);
+
+/// The end of a sculpting run (no reader left): applies every change still queued and
+/// finishes the flows, so the grid holds all the mass.
+void drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel);
+
 /// Called now and then with (ticks done, ticks total).
 using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 
@@ -105,8 +123,9 @@ using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 /// tick to `session` (if not null). Does not close the session.
 ///
 /// With `sculpt`, each tick runs, in this fixed order: the force stage (which may emit a
-/// surface change into the channel), the relaxation stage (all queued deletions, then at
-/// most relax_voxels_per_tick active voxels), and the publication of changed voxels into
+/// surface change into the channel), the relaxation stage (run_relax_stage: at most
+/// max_deletions_per_tick queued deletions, then at most relax_voxels_per_tick relaxation
+/// steps), and the publication of changed voxels into
 /// the field the force model reads. Results are bit-reproducible.
 ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,

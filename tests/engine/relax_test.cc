@@ -147,6 +147,66 @@ TEST(Relax, DeepPressSettlesInOnePassAndRaisesARimAroundTheTool) {
   EXPECT_LT(min_axis_mm, 16.0);  // it touches the tool (the rim starts at the contact)
 }
 
+// Issue 3 point 3: relaxation work is bounded per step so its thread stays responsive.
+// The deep press's flow needs far more visits than one call may make: it resumes across
+// calls, the total (grid plus the pool in flight) stays exact, and the volume settles.
+TEST(Relax, WorkPerCallStaysWithinTheBudgetAndTheVolumeStillSettles) {
+  const DensityField field = generate_volume("block:dims=96");  // face at z = 47.5
+  const Vec3d centre(48, 48, 47.5 + 16.0 - 8.0);
+  constexpr std::size_t kVoxels = 100;
+  auto run = [&](std::size_t* max_visits_seen, std::size_t* calls) {
+    RelaxOptions options;
+    MassGrid mass(field, options);
+    const std::int64_t before = mass.total_mass_units();
+    mass.apply_deletion(change_at(centre, Vec3d(0, 0, -1), 16.0));
+    const std::size_t max_visits = kVoxels * options.flow_visits_per_voxel;
+    *max_visits_seen = 0;
+    *calls = 0;
+    while (!mass.settled() && *calls < 100000) {
+      const RelaxWork was = mass.work();
+      const std::size_t steps = mass.relax(kVoxels);
+      const RelaxWork& now = mass.work();
+      const std::size_t relaxed = now.relaxed_voxels - was.relaxed_voxels;
+      const std::size_t visits = now.flow_visits - was.flow_visits;
+      EXPECT_LE(relaxed, kVoxels) << "call " << *calls;
+      EXPECT_LE(visits, max_visits) << "call " << *calls;
+      EXPECT_EQ(steps, relaxed + visits);
+      *max_visits_seen = std::max(*max_visits_seen, visits);
+      if (++*calls % 25 == 0) {
+        EXPECT_EQ(mass.total_mass_units(), before) << "call " << *calls;
+      }
+    }
+    EXPECT_TRUE(mass.settled()) << "after " << *calls << " calls";
+    EXPECT_EQ(mass.flowing_units(), 0);
+    EXPECT_EQ(mass.total_mass_units(), before);
+    EXPECT_LE(mass.max_density(), 1.02 + 1e-9);
+    std::vector<std::int32_t> values;
+    for (auto it = mass.grid().cbeginValueOn(); it; ++it) values.push_back(*it);
+    return values;
+  };
+  std::size_t max_visits_seen = 0, calls = 0;
+  const auto first = run(&max_visits_seen, &calls);
+  // The bound bit: some call stopped a search at its budget, and it took many calls.
+  EXPECT_EQ(max_visits_seen, kVoxels * RelaxOptions{}.flow_visits_per_voxel);
+  EXPECT_GT(calls, 10u);
+  // Resuming is deterministic, as lockstep replays need.
+  EXPECT_EQ(run(&max_visits_seen, &calls), first);
+}
+
+TEST(Relax, FinishFlowsLandsThePoolInFlight) {
+  const DensityField field = generate_volume("block:dims=96");
+  MassGrid mass(field);
+  const std::int64_t before = mass.total_mass_units();
+  mass.apply_deletion(change_at(Vec3d(48, 48, 55.5), Vec3d(0, 0, -1), 16.0));
+  while (mass.flowing_units() == 0 && !mass.settled()) mass.relax(10);
+  ASSERT_GT(mass.flowing_units(), 0);  // a search cut short, mass outside the grid
+  mass.finish_flows();
+  EXPECT_EQ(mass.flowing_units(), 0);
+  std::int64_t in_grid = 0;
+  for (auto it = mass.grid().cbeginValueOn(); it; ++it) in_grid += *it;
+  EXPECT_EQ(in_grid, before);
+}
+
 TEST(Relax, SettlesBackToTheNormalDensity) {
   const DensityField field = generate_volume("block:dims=48");
   RelaxOptions options;

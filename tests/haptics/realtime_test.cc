@@ -97,7 +97,7 @@ RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& sessio
   const engine::ToolForceModel model(buffers.buffer(0), options);
   engine::MassGrid mass(field);
   SurfaceChangeChannel channel;
-  RealtimeSculpt sculpt{&mass, &buffers, &channel, 2000};
+  RealtimeSculpt sculpt{&mass, &buffers, &channel, 2000, 8};
   RealtimeRun run;
   std::uint64_t at_start = 0;
   realtime.hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
@@ -120,6 +120,11 @@ TEST(Realtime, SculptingWithTwoThreadsConservesMassAndRecordsEveryTick) {
   EXPECT_GT(run.sculpt.plastic_events, 100u);
   EXPECT_GT(run.sculpt.deleted_voxels, 0u);
   EXPECT_EQ(run.sculpt.final_mass_units, run.sculpt.initial_mass_units);
+  // Every slice of the relaxation thread did bounded work (the budgets sculpt_realtime
+  // sets: 8 deletions, 2000 voxels with 8 flow visits each).
+  EXPECT_GT(run.timing.relax_slice_max_deletions, 0u);
+  EXPECT_LE(run.timing.relax_slice_max_deletions, 8u);
+  EXPECT_LE(run.timing.relax_slice_max_steps, 2000u * (1 + 8));
   const SessionInfo info = read_session_info(dir + "/rt.h5");
   EXPECT_EQ(info.rows, device.tick_count());
   // Timing is recorded: deadlines 1 ms apart, starts never before their deadline.
