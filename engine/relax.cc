@@ -293,9 +293,9 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
 }
 
 std::size_t MassGrid::relax(std::size_t max_voxels) {
-  const std::size_t max_visits =
-      max_voxels > SIZE_MAX / flow_visits_per_voxel_ ? SIZE_MAX
-                                                     : max_voxels * flow_visits_per_voxel_;
+  const std::size_t max_visits = max_voxels > SIZE_MAX / flow_visits_per_voxel_
+                                     ? SIZE_MAX
+                                     : max_voxels * flow_visits_per_voxel_;
   // A search cut short by the last call's budget goes on first: its mass is outside the
   // grid until it lands.
   std::size_t visits = flow_active_ ? advance_flow(max_visits) : 0;

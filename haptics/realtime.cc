@@ -76,9 +76,9 @@ void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
   while (true) {
     const bool finishing = force_done.load(std::memory_order_acquire);
     const auto slice_begin = Clock::now();
-    const RelaxStageWork work = run_relax_stage(*sculpt.mass, *sculpt.channel,
-                                                sculpt.max_deletions_per_slice,
-                                                sculpt.relax_voxels_per_slice);
+    const RelaxStageWork work =
+        run_relax_stage(*sculpt.mass, *sculpt.channel, sculpt.max_deletions_per_slice,
+                        sculpt.relax_voxels_per_slice);
     max_slice_work.deletions = std::max(max_slice_work.deletions, work.deletions);
     max_slice_work.relax_steps = std::max(max_slice_work.relax_steps, work.relax_steps);
     const std::size_t did = work.deletions + work.relax_steps;

@@ -61,7 +61,7 @@ struct TimingSummary {
   double relax_cpu_s = 0;
   std::size_t relax_slice_max_deletions = 0;  // most deletions one slice applied
   std::size_t relax_slice_max_steps = 0;      // most relaxation steps one slice took
-  std::vector<std::int64_t> relax_slice_ns;  // every slice that did work, in order
+  std::vector<std::int64_t> relax_slice_ns;   // every slice that did work, in order
   std::vector<std::int64_t> relax_slice_start_ns;
 };
 

@@ -325,8 +325,8 @@ std::vector<Table1Row> run_bench_plastic(const PlasticBenchFlags& f) {
   std::printf(
       "\nrelaxation after a diameter-32 press 8 mm deep, until no voxel exceeds 1.02 "
       "(seed: 217,000 voxels/s)\n");
-  std::printf("%-16s %9s %12s %12s %12s %14s %10s\n", "rule", "settled", "settle s", "relaxed",
-              "flow visits", "voxels/s", "mass");
+  std::printf("%-16s %9s %12s %12s %12s %14s %10s %12s %9s\n", "rule", "settled", "settle s",
+              "relaxed", "flow visits", "voxels/s", "mass", "seed vox/s", "ours/seed");
   const std::int64_t mass_before = engine::MassGrid(field).total_mass_units();
   Table1Row relax_row{"relaxation", n, 32, "voxels/s", NAN, NAN, 217000.0, ""};
   Table1Row settle_row{"settle", n, 32, "s", NAN, NAN, NAN, ""};
@@ -368,9 +368,10 @@ std::vector<Table1Row> run_bench_plastic(const PlasticBenchFlags& f) {
     }
     const double median_s = haptics::percentile(settle_s, 50.0);
     const double median_rate = haptics::percentile(rate, 50.0);
-    std::printf("%-16s %9s %12.4f %12zu %12zu %14.0f %10s\n",
+    std::printf("%-16s %9s %12.4f %12zu %12zu %14.0f %10s %12.0f %8.1fx\n",
                 ours ? "ours (flow)" : "paper (diffuse)", all_settled ? "yes" : "NO", median_s,
-                relaxed, visits, median_rate, exact ? "exact" : "CHANGED");
+                relaxed, visits, median_rate, exact ? "exact" : "CHANGED", relax_row.seed,
+                median_rate / relax_row.seed);
     std::fflush(stdout);
     char note[160];
     std::snprintf(note, sizeof note, "%s: %s after %.4f s", ours ? "ours" : "naive (paper rule)",
@@ -522,8 +523,7 @@ std::shared_ptr<Table1Flags> add_table1_options(CLI::App* cmd, bool with_callbac
       ->capture_default_str();
   cmd->add_option("--min-time-s", flags->force.min_time_s, "Minimum time per measurement")
       ->capture_default_str();
-  cmd->add_option("--repetitions", flags->force.repetitions,
-                  "Repetitions (the median is reported)")
+  cmd->add_option("--repetitions", flags->force.repetitions, "Repetitions (the median is reported)")
       ->capture_default_str();
   cmd->add_option("--max-relax-s", flags->plastic.max_relax_s, "Give up relaxing after this long")
       ->capture_default_str();

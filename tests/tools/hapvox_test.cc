@@ -11,6 +11,9 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "test_data.h"
 
@@ -300,20 +303,73 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
                      "--relax-tolerance: must lie in [0, 10]");
 }
 
-TEST(HapvoxCli, BenchForcePrintsTheTable) {
-  const Result r = run("bench force --sizes 64 --diameters 16 --min-time-s 0.01 --repetitions 1");
+// The whitespace-separated fields of the first line of `text` whose fields begin with
+// `leading`; empty when there is none.
+std::vector<std::string> table_row(const std::string& text,
+                                   const std::vector<std::string>& leading) {
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream words(line);
+    std::vector<std::string> fields;
+    for (std::string word; words >> word;) fields.push_back(word);
+    if (fields.size() >= leading.size() &&
+        std::equal(leading.begin(), leading.end(), fields.begin())) {
+      return fields;
+    }
+  }
+  return {};
+}
+
+// Issue 2 point 3: the seed's 4,654 / 566 / 74 Hz beside ours, at the seed's 128^3.
+TEST(HapvoxCli, BenchForcePrintsTheSeedBesideOursAndTheNaiveBaseline) {
+  const Result r =
+      run("bench force --sizes 128 --diameters 16,32,64 --min-time-s 0.01 --repetitions 1");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("ours Hz"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("naive Hz"), std::string::npos);
   EXPECT_NE(r.out.find("seed Hz"), std::string::npos);
+  EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+  // volume, diameter, samples, ours, naive, ours/naive, seed, ours/seed
+  for (const auto& [diameter, seed] : {std::pair{"16", "4654"}, {"32", "566"}, {"64", "74"}}) {
+    const auto row = table_row(r.out, {"128^3", diameter});
+    ASSERT_EQ(row.size(), 8u) << diameter << "\n" << r.out;
+    EXPECT_EQ(row[6], seed) << r.out;
+    EXPECT_GT(std::stod(row[3]), 0.0) << r.out;
+    EXPECT_GT(std::stod(row[4]), 0.0) << r.out;
+  }
+}
+
+// Issue 3 point 6: the seed's ~2 kHz / 250 / 24 Hz deletion and 217,000 voxels/s beside ours.
+TEST(HapvoxCli, BenchPlasticPrintsTheSeedBesideOursAndTheNaiveBaseline) {
+  const Result r =
+      run("bench plastic --size 64 --diameters 16,32,64 --min-time-s 0.01 --repetitions 1 "
+          "--max-relax-s 0.2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+  // diameter, ours, naive, ours/naive, seed, ours/seed
+  for (const auto& [diameter, seed] : {std::pair{"16", "2000"}, {"32", "250"}, {"64", "24"}}) {
+    const auto row = table_row(r.out, {diameter});
+    ASSERT_EQ(row.size(), 6u) << diameter << "\n" << r.out;
+    EXPECT_EQ(row[4], seed) << r.out;
+    EXPECT_GT(std::stod(row[1]), 0.0) << r.out;
+  }
+  // rule (two words), settled, settle s, relaxed, visits, voxels/s, mass, seed, ours/seed
+  for (const std::vector<std::string>& rule : {std::vector<std::string>{"ours", "(flow)"},
+                                               std::vector<std::string>{"paper", "(diffuse)"}}) {
+    const auto row = table_row(r.out, rule);
+    ASSERT_EQ(row.size(), 10u) << rule[0] << "\n" << r.out;
+    EXPECT_EQ(row[8], "217000") << r.out;
+    EXPECT_EQ(row[7], "exact") << r.out;
+  }
+  EXPECT_EQ(table_row(r.out, {"ours", "(flow)"})[2], "yes") << r.out;  // ours settles
 }
 
 void expect_table1_csv_and_json(const std::string& command) {
   const std::string dir = scratch_dir();
-  const Result r =
-      run(command + " --sizes 64 --diameters 16 --plastic-size 64 --min-time-s 0.01 "
-          "--repetitions 1 --max-relax-s 0.5 --csv " +
-          dir + "/t1.csv --json " + dir + "/t1.json");
+  const Result r = run(command +
+                       " --sizes 64 --diameters 16 --plastic-size 64 --min-time-s 0.01 "
+                       "--repetitions 1 --max-relax-s 0.5 --csv " +
+                       dir + "/t1.csv --json " + dir + "/t1.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("Table 1 of both Prados seeds"), std::string::npos) << r.out;
   for (const char* measure : {"force ", "deletion ", "relaxation ", "settle "}) {
