@@ -2,7 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 namespace hapvox::testing {
 
@@ -12,7 +17,9 @@ std::string source_path(const std::string& relative) {
 
 std::string hapvox_binary() { return HAPVOX_BINARY; }
 
-std::string scratch_dir() {
+namespace {
+// Unique to the running test: ctest runs tests in parallel.
+std::string scratch_dir_name() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string name = "hapvox_test";
   if (info != nullptr) {
@@ -21,10 +28,38 @@ std::string scratch_dir() {
   for (char& c : name) {
     if (c == '/') c = '_';
   }
-  const auto dir = std::filesystem::temp_directory_path() / name;
+  return (std::filesystem::temp_directory_path() / name).string();
+}
+}  // namespace
+
+std::string scratch_dir() {
+  const std::filesystem::path dir = scratch_dir_name();
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();
+}
+
+namespace {
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+}  // namespace
+
+CommandResult run_hapvox(const std::string& args) {
+  // Beside the test's scratch directory, not in it: the test may look at that one.
+  const std::string base = scratch_dir_name();
+  const std::string out = base + "_stdout.txt";
+  const std::string err = base + "_stderr.txt";
+  const std::string command = hapvox_binary() + " " + args + " >" + out + " 2>" + err;
+  const int status = std::system(command.c_str());
+  CommandResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
 }
 
 }  // namespace hapvox::testing

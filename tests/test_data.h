@@ -12,4 +12,14 @@ std::string hapvox_binary();
 /// A fresh, empty directory unique to the running test.
 std::string scratch_dir();
 
+/// What a run of the hapvox executable printed and returned.
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+/// Runs `hapvox ARGS` (a shell command line), capturing stdout and stderr in files unique
+/// to the running test (ctest runs tests in parallel).
+CommandResult run_hapvox(const std::string& args);
+
 }  // namespace hapvox::testing

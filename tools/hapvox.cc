@@ -10,7 +10,13 @@
 #include "engine/errors.h"
 #include "engine/version.h"
 #include "haptics/session.h"
+#include "render/gl_context.h"
 #include "tools/cli.h"
+
+namespace hapvox::cli {
+void add_render_command(CLI::App& app);         // tools/cmd_render.cc
+void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
+}  // namespace hapvox::cli
 
 int main(int argc, char** argv) {
   CLI::App app{"hapvox: touch, press and sculpt 3D images with a haptic tool at 1 kHz", "hapvox"};
@@ -28,7 +34,9 @@ int main(int argc, char** argv) {
   hapvox::cli::add_report_command(app);
   hapvox::cli::add_info_command(app);
   hapvox::cli::add_bench_command(app);
+  hapvox::cli::add_bench_render_command(*app.get_subcommand("bench"));
   hapvox::cli::add_trace_command(app);
+  hapvox::cli::add_render_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -41,6 +49,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "hapvox: error: %s (see hapvox --help)\n", e.what());
     return 2;
   } catch (const hapvox::InputError& e) {
+    std::fprintf(stderr, "hapvox: error: %s\n", e.what());
+    return 2;
+  } catch (const hapvox::render::RenderError& e) {
+    // No EGL, no surfaceless platform, a driver refusing the context: the machine's
+    // set-up, not an internal error.
     std::fprintf(stderr, "hapvox: error: %s\n", e.what());
     return 2;
   } catch (const hapvox::cli::TimingBudgetBroken& e) {

@@ -1,0 +1,93 @@
+#pragma once
+// Draws a density field with view-aligned, back-to-front slices of an FFD slice mesh
+// (render/slice_mesh.h) into an offscreen framebuffer: a 3D texture holds density and its
+// precomputed gradient, a 1D texture the transfer function; Blinn-Phong shading from the
+// gradient with a headlight; the tool drawn as a shaded sphere.
+//
+// Needs a current GlContext on the calling thread; every call must come from that thread.
+// The renderer keeps its own dense copy of the field: changes arrive as voxel values
+// (set_voxel, from whichever thread owns the field) and only the 8^3 bricks they touch are
+// recomputed and re-uploaded (flush_changes), never the whole texture.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "engine/density_field.h"
+#include "render/camera.h"
+#include "render/image.h"
+#include "render/slice_mesh.h"
+#include "render/transfer_function.h"
+
+namespace hapvox::render {
+
+struct FrameStats {
+  double mesh_ms = 0.0;    // building the slice mesh on the CPU
+  double upload_ms = 0.0;  // vertex buffers and changed bricks
+  double draw_ms = 0.0;    // GL draw until finished
+  double read_ms = 0.0;    // reading the pixels back
+  std::size_t vertices = 0;
+  std::size_t triangles = 0;
+  std::size_t bricks_uploaded = 0;
+};
+
+struct RenderSettings {
+  int width = 512;
+  int height = 512;
+  SliceMeshOptions mesh;
+  bool draw_tool = true;
+  float background[3] = {0.08f, 0.09f, 0.11f};
+};
+
+class VolumeRenderer {
+ public:
+  /// Uploads `field` whole (the only full upload) and compiles the shaders.
+  VolumeRenderer(const engine::DensityField& field, const TransferFunction& transfer);
+  ~VolumeRenderer();
+  VolumeRenderer(const VolumeRenderer&) = delete;
+  VolumeRenderer& operator=(const VolumeRenderer&) = delete;
+
+  /// Records a changed voxel (index space, density in [0, 1]); cheap, no GL.
+  void set_voxel(const openvdb::Coord& ijk, float density);
+  /// Recomputes and uploads the bricks changed since the last call. Returns how many.
+  std::size_t flush_changes();
+
+  void set_transfer_function(const TransferFunction& transfer);
+
+  /// Renders one frame. Changes not yet flushed are flushed first.
+  Image render(const OrbitCamera& camera, const ToolPose& tool, const RenderSettings& settings,
+               FrameStats* stats = nullptr);
+
+  /// The box of visible material (world mm), the part of the volume the slices cover.
+  const Eigen::Vector3d& visible_lo_mm() const { return visible_lo_; }
+  const Eigen::Vector3d& visible_hi_mm() const { return visible_hi_; }
+  const Eigen::Vector3d& volume_lo_mm() const { return volume_lo_; }
+  const Eigen::Vector3d& volume_hi_mm() const { return volume_hi_; }
+  std::uint64_t bricks_uploaded() const { return bricks_uploaded_total_; }
+
+ private:
+  struct Gl;
+  void compute_texels(const Eigen::Vector3i& lo, const Eigen::Vector3i& hi);
+  void ensure_framebuffer(int width, int height);
+  std::size_t index(int x, int y, int z) const {
+    return (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x;
+  }
+
+  std::unique_ptr<Gl> gl_;
+  Eigen::Vector3i dims_;
+  Eigen::Vector3d voxel_mm_;
+  Eigen::Vector3d volume_lo_, volume_hi_;
+  Eigen::Vector3d visible_lo_ = Eigen::Vector3d::Zero(), visible_hi_ = Eigen::Vector3d::Zero();
+  bool has_visible_ = false;
+  float first_visible_density_ = 0.0f;
+  std::vector<float> density_;          // dims_, x fastest
+  std::vector<std::uint8_t> texels_;    // RGBA8: encoded gradient direction, density
+  std::vector<std::uint8_t> dirty_;     // one flag per 8^3 brick
+  std::vector<std::uint32_t> dirty_list_;
+  Eigen::Vector3i bricks_;
+  std::uint64_t bricks_uploaded_total_ = 0;
+  SliceMesh mesh_;
+};
+
+}  // namespace hapvox::render

@@ -1,0 +1,113 @@
+// The `hapvox render` and `hapvox bench render` commands end to end: frames written and
+// looked at, one-line errors for bad input, nothing created before the input is valid.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "render/image.h"
+#include "test_data.h"
+
+namespace hapvox {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::run_hapvox;
+using testing::scratch_dir;
+using testing::source_path;
+
+// Share of pixels that differ from the top-left (background) pixel.
+double drawn_fraction(const render::Image& image) {
+  std::size_t drawn = 0;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        if (image.pixel(x, y)[c] != image.pixel(0, 0)[c]) {
+          ++drawn;
+          break;
+        }
+      }
+    }
+  }
+  return static_cast<double>(drawn) / (image.width * image.height);
+}
+
+TEST(RenderCli, TurntableWritesFramesThatShowTheEngineFromEachSide) {
+  const std::string dir = scratch_dir() + "/turn";  // created by the command
+  const auto r = run_hapvox("render " + source_path("data/engine_256x256x128_uint8.nrrd") +
+                            " -o " + dir + " --turntable 4 --size 128x96 --slices 128");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("wrote 4 frames of 128x96"), std::string::npos) << r.out;
+  std::vector<render::Image> frames;
+  for (int i = 0; i < 4; ++i) {
+    frames.push_back(render::read_png(dir + "/frame_000" + std::to_string(i) + ".png"));
+    EXPECT_EQ(frames.back().width, 128);
+    EXPECT_EQ(frames.back().height, 96);
+    EXPECT_GT(drawn_fraction(frames.back()), 0.1);
+  }
+  // A quarter turn apart, the views differ.
+  EXPECT_LT(render::psnr_db(frames[0], frames[1]), 25.0);
+}
+
+TEST(RenderCli, TraceReplayDrawsTheToolPressingAndSculpting) {
+  const std::string dir = scratch_dir();
+  const auto r = run_hapvox("render block -o " + dir + "/clay --size 96 --slices 96 " +
+                            "--trace " + source_path("traces/clay_stroke.csv") +
+                            " --plastic --every-ticks 2000 -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const int frames = static_cast<int>(
+      std::distance(fs::directory_iterator(dir + "/clay"), fs::directory_iterator{}));
+  EXPECT_GE(frames, 3);
+  const render::Image first = render::read_png(dir + "/clay/frame_0000.png");
+  const render::Image last =
+      render::read_png(dir + "/clay/frame_000" + std::to_string(frames - 1) + ".png");
+  // The groove left in the clay changes the last frame.
+  EXPECT_LT(render::psnr_db(first, last), 40.0);
+}
+
+TEST(RenderCli, BadInputGivesOneLineNamingTheProblemAndCreatesNothing) {
+  const std::string dir = scratch_dir();
+  const std::string out = dir + "/frames";
+  struct Case {
+    std::string args, error;
+  };
+  const std::vector<Case> cases = {
+      {"render " + dir + "/none.nrrd -o " + out, dir + "/none.nrrd: "},
+      {"render block -o " + out + " --size 5", "--size: expected N or WxH with 16 <= N <= 8192, got '5'"},
+      {"render block -o " + out + " --size 64xq", "--size: expected N or WxH"},
+      {"render block -o " + out + " --slices 0", "--slices: must lie in [1, 4096]"},
+      {"render block -o " + out + " --kernel gauss", "--kernel: expected wendland or paper, got 'gauss'"},
+      {"render block -o " + out + " --tessellation x", "--tessellation: expected adaptive or uniform"},
+      {"render block -o " + out + " --transfer nope", "nope: not a transfer-function preset"},
+      {"render block -o " + out + " --plastic", "--plastic: needs --trace"},
+      {"render block -o " + out + " --trace " + dir + "/none.csv", dir + "/none.csv: "},
+      {"render block -o " + out + " --support-mm -1", "--support-mm: must be zero"},
+      {"render block -o " + out + " --every-ticks 0", "--every-ticks: must be at least 1"},
+  };
+  for (const Case& c : cases) {
+    const auto r = run_hapvox(c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args;
+    EXPECT_EQ(r.err.rfind("hapvox: error: " + c.error, 0), 0u) << c.args << "\n" << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << c.args;
+  }
+  // An output path that is a file.
+  std::ofstream(dir + "/file") << "x";
+  const auto r = run_hapvox("render block -o " + dir + "/file");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "hapvox: error: " + dir + "/file: exists and is not a directory\n");
+}
+
+TEST(RenderCli, BenchRenderPrintsOursBesideTheNaiveMeshWithPsnr) {
+  const auto r = run_hapvox("bench render --volumes block:dims=64 --sizes 64 --frames 1 --slices 64");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("ours: adaptive, 64 slices"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("naive: 500 x 20x20, Eq. 10"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ours / naive"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("PSNR dB"), std::string::npos) << r.out;
+}
+
+}  // namespace
+}  // namespace hapvox
