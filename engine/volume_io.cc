@@ -1,7 +1,15 @@
 #include "engine/volume_io.h"
 
+#include <fcntl.h>
 #include <openvdb/io/File.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <zlib.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
 
 #include <algorithm>
 #include <array>
@@ -810,9 +818,101 @@ DensityField map_to_density(const RawVolume& raw, const IntensityMapping& mappin
   return DensityField(grid, raw.spacing_mm, raw.origin_mm, dims);
 }
 
+namespace {
+
+// Densities a .vdb may hold: sculpted volumes exceed 1 where clay is compressed; far
+// beyond that is a corrupt or foreign grid (and would overflow the mass grid's units).
+constexpr float kMaxDensity = 1000.0f;
+
+// OpenVDB trusts its input: bytes flipped inside a grid's data can make it allocate
+// without bound, loop, or corrupt the heap rather than throw. So a .vdb is first read by a
+// child process, with its memory capped (outside sanitizer builds, whose shadow memory a
+// cap would break), a time limit and stderr silenced; only if that read succeeds is the
+// file read here. Throws InputError saying how the child's read failed.
+void check_vdb_in_child(const std::string& path) {
+#if defined(__SANITIZE_THREAD__)
+  // ThreadSanitizer kills the child of a multithreaded fork: there, read directly.
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("Threads:", 0) == 0 && std::stoi(line.substr(8)) > 1) return;
+  }
+#endif
+  int fds[2];
+  if (pipe(fds) != 0) return;  // no child: the read below is on its own
+  std::fflush(nullptr);
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    return;
+  }
+  if (pid == 0) {
+    close(fds[0]);
+    const int null_fd = open("/dev/null", O_WRONLY);
+    if (null_fd >= 0) dup2(null_fd, STDERR_FILENO);
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    if (pages > 0 && page > 0) {
+      const rlim_t half = static_cast<rlim_t>(pages) / 2 * static_cast<rlim_t>(page);
+      const rlimit cap{half, half};
+      setrlimit(RLIMIT_AS, &cap);
+    }
+#endif
+    std::error_code ec;
+    const auto bytes = fs::file_size(path, ec);
+    alarm(30 + static_cast<unsigned>(ec ? 0 : bytes >> 20));  // 30 s plus 1 s per MB
+    std::string message;
+    int code = 0;
+    openvdb::io::File file(path);
+    try {
+      file.open(false);
+    } catch (const std::exception& e) {
+      message = std::string("not a VDB file (") + e.what() + ")";
+      code = 2;
+    }
+    if (code == 0) {
+      try {
+        file.getGrids();
+        file.close();
+      } catch (const std::bad_alloc&) {
+        message = "corrupt or truncated VDB file (its sizes ask for more memory than exists)";
+        code = 2;
+      } catch (const std::exception& e) {
+        message = std::string("cannot read VDB grid: ") + e.what();
+        code = 2;
+      }
+    }
+    if (write(fds[1], message.data(), message.size()) < 0) code = 3;
+    _exit(code);
+  }
+  close(fds[1]);
+  std::string message;
+  char buffer[512];
+  for (ssize_t n; (n = read(fds[0], buffer, sizeof buffer)) != 0;) {
+    if (n > 0) {
+      message.append(buffer, static_cast<std::size_t>(n));
+    } else if (errno != EINTR) {
+      break;
+    }
+  }
+  close(fds[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 2) throw InputError(path, message);
+  if (WIFSIGNALED(status) && WTERMSIG(status) == SIGALRM) {
+    throw InputError(path, "corrupt or truncated VDB file (reading it did not finish)");
+  }
+  throw InputError(path, "corrupt or truncated VDB file (reading it crashed OpenVDB)");
+}
+
+}  // namespace
+
 DensityField read_vdb(const std::string& path) {
   initialize_openvdb();
   if (!fs::is_regular_file(path)) throw InputError(path, "cannot open file");
+  check_vdb_in_child(path);
   openvdb::io::File file(path);
   openvdb::FloatGrid::Ptr grid;
   try {
@@ -833,6 +933,8 @@ DensityField read_vdb(const std::string& path) {
     file.close();
   } catch (const openvdb::Exception& e) {
     throw InputError(path, std::string("cannot read VDB grid: ") + e.what());
+  } catch (const std::exception& e) {
+    throw InputError(path, std::string("corrupt or truncated VDB file (") + e.what() + ")");
   }
   if (grid == nullptr) {
     throw InputError(path, "no float grid (expected a grid named \"density\")");
@@ -847,6 +949,11 @@ DensityField read_vdb(const std::string& path) {
   }
   for (auto it = grid->cbeginValueOn(); it; ++it) {
     if (!std::isfinite(*it)) throw InputError(path, "grid contains NaN or infinite values");
+    if (*it < 0.0f || *it > kMaxDensity) {
+      throw InputError(path, "grid contains density " + std::to_string(*it) + " outside [0, " +
+                                 std::to_string(static_cast<int>(kMaxDensity)) +
+                                 "] (1 is the normal density)");
+    }
   }
   const openvdb::math::Transform& xform = grid->transform();
   if (!xform.isLinear()) throw InputError(path, "grid transform is not linear");

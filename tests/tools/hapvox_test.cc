@@ -15,12 +15,16 @@
 #include <utility>
 #include <vector>
 
+#include "engine/volume_io.h"
+#include "haptics/trace.h"
 #include "test_data.h"
 
 namespace hapvox {
 namespace {
 
 namespace fs = std::filesystem;
+using engine::Vec3d;
+using engine::Vec3i;
 using testing::hapvox_binary;
 using testing::scratch_dir;
 using testing::source_path;
@@ -196,6 +200,51 @@ TEST(HapvoxCli, BadVolumesAreRejected) {
   EXPECT_FALSE(fs::exists(out + ".partial"));
 }
 
+// Issue 2 point 7 for OpenVDB: a real .vdb written by hapvox, cut in half or with bytes
+// flipped in the middle (OpenVDB trusts its input; it is read in a child process first),
+// and grids holding NaN or infinite density.
+TEST(HapvoxCli, BadVdbVolumesAreRejected) {
+  const std::string dir = scratch_dir();
+  const std::string out = dir + "/s.h5";
+  const std::string good = dir + "/good.vdb";
+  engine::write_vdb(engine::generate_volume("block:dims=32"), good);
+  const std::string replay = "replay " + press_trace() + " -o " + out + " --volume ";
+  ASSERT_EQ(run("info " + good).exit_code, 0);
+  const std::string bytes = slurp(good);
+  ASSERT_GT(bytes.size(), 1000u);
+  write_file(dir + "/cut.vdb", bytes.substr(0, bytes.size() / 2));
+  std::string flipped = bytes;
+  for (std::size_t i = flipped.size() / 2 - 32; i < flipped.size() / 2 + 32; ++i) {
+    flipped[i] = static_cast<char>(~flipped[i]);
+  }
+  write_file(dir + "/flipped.vdb", flipped);
+  for (const float bad : {NAN, INFINITY, -INFINITY}) {
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->tree().setValueOn(openvdb::Coord(1, 2, 3), 1.0f);
+    grid->tree().setValueOn(openvdb::Coord(4, 5, 6), bad);
+    const std::string name = dir + "/" +
+                             (std::isnan(bad) ? "nan"
+                              : bad > 0       ? "inf"
+                                              : "-inf") +
+                             ".vdb";
+    engine::write_vdb(engine::DensityField(grid, Vec3d::Ones(), Vec3d::Zero(), Vec3i(8, 8, 8)),
+                      name);
+    expect_input_error(replay + name, name + ": grid contains NaN or infinite values");
+    expect_input_error("info " + name, name + ": grid contains NaN or infinite values");
+  }
+  for (const char* name : {"cut.vdb", "flipped.vdb"}) {
+    const std::string path = dir + "/" + name;
+    for (const std::string& command : {replay + path, "info " + path}) {
+      const Result r = run(command);
+      EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.err;
+      EXPECT_EQ(r.err.rfind("hapvox: error: " + path + ": ", 0), 0u) << r.err;
+      EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    }
+  }
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out + ".partial"));
+}
+
 TEST(HapvoxCli, BadTracesAreRejected) {
   const std::string dir = scratch_dir();
   const std::string out = dir + "/s.h5";
@@ -230,6 +279,13 @@ TEST(HapvoxCli, BadTracesAreRejected) {
   expect_input_error(replay(dir + "/cut.h5"), dir + "/cut.h5: cannot open HDF5 file");
   write_file(dir + "/junk.h5", "not hdf5 at all");
   expect_input_error(replay(dir + "/junk.h5"), dir + "/junk.h5: not an HDF5 file");
+  // An HDF5 trace holding an infinite position.
+  haptics::Trace infinite;
+  infinite.time_s = {0.0, 0.1, 0.2};
+  infinite.position_mm = {Vec3d(1, 2, 3), Vec3d(1, INFINITY, 3), Vec3d(1, 2, 3)};
+  haptics::write_h5_trace(infinite, dir + "/inf.h5");
+  expect_input_error(replay(dir + "/inf.h5"),
+                     dir + "/inf.h5: index 1: dataset 'y': NaN or infinite value");
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(out + ".partial"));
 }
