@@ -77,14 +77,21 @@ openvdb::Coord to_coord(const Vec3d& v) {
 
 }  // namespace
 
+std::int32_t normal_density_units(double normal_density) {
+  HAPVOX_CHECK(normal_density > 0.0 && normal_density <= 1.0);
+  return std::max<std::int32_t>(
+      1, static_cast<std::int32_t>(std::lround(normal_density * kNormalDensityUnits)));
+}
+
 MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
     : grid_(openvdb::Int32Grid::create(0)),
       accessor_(grid_->getAccessor()),
       voxel_size_mm_(field.voxel_size_mm()),
       origin_mm_(field.origin_mm()),
       dims_(field.dims()),
+      normal_units_(normal_density_units(options.normal_density)),
       threshold_units_(static_cast<std::int32_t>(
-          std::floor(kNormalDensityUnits * (1.0 + std::max(0.0, options.tolerance))))),
+          std::floor(normal_units_ * (1.0 + std::max(0.0, options.tolerance))))),
       rule_(options.rule),
       flow_visits_per_voxel_(options.flow_visits_per_voxel) {
   HAPVOX_CHECK_GE(flow_visits_per_voxel_, std::size_t{1});
@@ -210,7 +217,7 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
 }
 
 void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
-  const std::int64_t excess = static_cast<std::int64_t>(units) - kNormalDensityUnits;
+  const std::int64_t excess = static_cast<std::int64_t>(units) - normal_units_;
   if (excess <= 0) return;
   openvdb::Coord neighbours[26];
   std::int32_t values[26];
@@ -238,7 +245,7 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
   // Flowing excess never raises a receiver above the normal density: that is what keeps
   // the bulk from diffusing and lets the pool reach the surface in one search.
   const std::int64_t mean =
-      flow ? std::min<std::int64_t>(sum / (count + 1), kNormalDensityUnits) : sum / (count + 1);
+      flow ? std::min<std::int64_t>(sum / (count + 1), normal_units_) : sum / (count + 1);
   std::int64_t added[26] = {};
   std::int64_t given = 0;
   // Material first flows into material (neighbours holding some), and only what they
@@ -281,7 +288,7 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
     for (int n = 0; n < count; ++n) added[n] += rest / count;
     for (int n = 0; n < rest % count; ++n) ++added[n];
   }
-  set(v, kNormalDensityUnits);
+  set(v, normal_units_);
   for (int n = 0; n < count; ++n) {
     if (added[n] == 0) continue;
     const std::int64_t updated = values[n] + added[n];
@@ -359,9 +366,8 @@ std::size_t MassGrid::advance_flow(std::size_t max_steps) {
       visited.setValueOn(n);
       if (inside_tool(n)) continue;
       std::int32_t units = accessor_.getValue(n);
-      if (units < kNormalDensityUnits && !carved_accessor_.isValueOn(n)) {
-        const std::int64_t deposit =
-            std::min<std::int64_t>(kNormalDensityUnits - units, flow_units_);
+      if (units < normal_units_ && !carved_accessor_.isValueOn(n)) {
+        const std::int64_t deposit = std::min<std::int64_t>(normal_units_ - units, flow_units_);
         units += static_cast<std::int32_t>(deposit);
         flow_units_ -= deposit;
         set(n, units);

@@ -2,9 +2,10 @@
 // Deletion and progressive relaxation (Prados et al., "Volumetric plastic deformation",
 // section 4.3) on an exact integer copy of the density.
 //
-// Density is stored in fixed point: kNormalDensityUnits units are the material's normal
-// density. Every operation moves whole units from voxel to voxel, so the total mass is an
-// exact integer invariant: total_mass_units() is equal bit for bit before and after any
+// Density is stored in fixed point: kNormalDensityUnits units are density 1; the material's
+// normal density (RelaxOptions::normal_density, default 1) is what relaxation settles to.
+// Every operation moves whole units from voxel to voxel, so the total mass is an exact
+// integer invariant: total_mass_units() is equal bit for bit before and after any
 // sequence of deletions and relaxation steps.
 //
 //   1. apply_deletion(c): the tool's sphere at c (swept from c.from_mm for coalesced
@@ -53,11 +54,18 @@
 
 namespace hapvox::engine {
 
+/// Fixed-point units per density 1 (the default normal density).
 inline constexpr std::int32_t kNormalDensityUnits = 1 << 16;
+
+/// The normal density, a fraction in (0, 1] of density 1, in fixed-point units (at least 1).
+std::int32_t normal_density_units(double normal_density);
 
 enum class RelaxRule { kFlowToRoom, kPaperDiffusion };
 
 struct RelaxOptions {
+  /// The material's normal (rest) density, the density relaxation settles voxels back to:
+  /// a fraction in (0, 1] of density 1 (issue 3: materials have a normal density).
+  double normal_density = 1.0;
   /// Settled when no voxel exceeds the normal density by more than this fraction.
   double tolerance = 0.02;
   RelaxRule rule = RelaxRule::kFlowToRoom;
@@ -94,6 +102,8 @@ class MassGrid {
   /// holds all the mass. For the end of a run, before the volume is written.
   void finish_flows();
 
+  /// The normal density in fixed-point units.
+  std::int32_t normal_units() const { return normal_units_; }
   /// True when no voxel exceeds the normal density plus the tolerance and no pool flows.
   bool settled();
   /// Mass still flowing to room (not yet in the grid), fixed-point units.
@@ -148,6 +158,7 @@ class MassGrid {
   Vec3d voxel_size_mm_;
   Vec3d origin_mm_;
   Vec3i dims_;
+  std::int32_t normal_units_;
   std::int32_t threshold_units_;
   RelaxRule rule_;
   std::size_t flow_visits_per_voxel_;

@@ -31,6 +31,7 @@ struct ReplayFlags {
   bool realtime = false;
   std::size_t relax_voxels_per_tick = 2000;
   double relax_tolerance = 0.02;
+  double normal_density = 1.0;
   std::string sculpt_out;
   // Realtime scheduling.
   bool no_mlock = false;
@@ -118,6 +119,11 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
     throw InputError("--relax-tolerance", "must lie in [0, 10]");
   }
+  if (!(f.normal_density > 0.0 && f.normal_density <= 1.0)) {
+    throw InputError("--normal-density", "must lie in (0, 1] (a fraction of density 1)");
+  }
+  if (f.normal_density != 1.0 && !f.plastic)
+    throw InputError("--normal-density", "needs --plastic");
   if (f.plastic) {
     const auto& plastic = f.force.options.plastic;
     if (!std::isfinite(plastic.yield_stress_pa) || plastic.yield_stress_pa <= 0.0) {
@@ -183,7 +189,9 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     session.set_attribute("relax_voxels_per_tick",
                           static_cast<std::int64_t>(f.relax_voxels_per_tick));
     session.set_attribute("relax_tolerance", f.relax_tolerance);
-    session.set_attribute("normal_density_units", std::int64_t{engine::kNormalDensityUnits});
+    session.set_attribute("normal_density", f.normal_density);
+    session.set_attribute("normal_density_units",
+                          std::int64_t{engine::normal_density_units(f.normal_density)});
   }
   std::unique_ptr<engine::MassGrid> mass;
   haptics::SurfaceChangeChannel channel;
@@ -194,6 +202,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (f.plastic) {
     engine::RelaxOptions relax_options;
     relax_options.tolerance = f.relax_tolerance;
+    relax_options.normal_density = f.normal_density;
     mass = std::make_unique<engine::MassGrid>(field, relax_options);
     sculpt.mass = mass.get();
     sculpt.mirror = &field;
@@ -372,6 +381,10 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
       ->capture_default_str();
   cmd->add_option("--relax-tolerance", flags->relax_tolerance,
                   "Settled when no voxel exceeds normal density by more than this fraction")
+      ->capture_default_str();
+  cmd->add_option("--normal-density", flags->normal_density,
+                  "Sculpt: the material's normal (rest) density, a fraction in (0, 1] of "
+                  "density 1, that relaxation settles voxels back to")
       ->capture_default_str();
   cmd->add_flag("--no-mlock", flags->no_mlock, "Realtime: do not lock memory");
   cmd->add_flag("--no-rt-priority", flags->no_rt_priority,

@@ -207,6 +207,38 @@ TEST(Relax, FinishFlowsLandsThePoolInFlight) {
   EXPECT_EQ(in_grid, before);
 }
 
+// Issue 3 point 1: a material's normal (rest) density is what relaxation settles to.
+TEST(Relax, SettlesToTheMaterialsNormalDensity) {
+  // Clay at half density filling the lower half of 48^3 voxels (face at z = 23.5).
+  initialize_openvdb();
+  auto grid = openvdb::FloatGrid::create(0.0f);
+  grid->tree().fill(openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(47, 47, 23)), 0.5f, true);
+  grid->tree().voxelizeActiveTiles();
+  const DensityField field(grid, Vec3d::Ones(), Vec3d::Zero(), Vec3i::Constant(48));
+  auto settle = [&](double normal_density) {
+    RelaxOptions options;
+    options.normal_density = normal_density;
+    MassGrid mass(field, options);
+    EXPECT_EQ(mass.normal_units(), std::lround(normal_density * kNormalDensityUnits));
+    const std::int64_t before = mass.total_mass_units();
+    mass.apply_deletion(change_at(Vec3d(24, 24, 22), Vec3d(0, 0, -1), 4.0));
+    for (int round = 0; round < 1000 && !mass.settled(); ++round) mass.relax(10000);
+    EXPECT_TRUE(mass.settled());
+    EXPECT_EQ(mass.total_mass_units(), before);
+    return mass.max_density();
+  };
+  // Its normal density is one half: the pushed material spreads until no voxel exceeds
+  // 0.5 * 1.02.
+  const double half = settle(0.5);
+  EXPECT_LE(half, 0.5 * 1.02 + 1e-9);
+  EXPECT_GE(half, 0.5);
+  // With the default normal density 1 the same clay stays compressed where it was pushed.
+  EXPECT_GT(settle(1.0), 0.9);
+  EXPECT_EQ(normal_density_units(1.0), kNormalDensityUnits);
+  EXPECT_EQ(normal_density_units(0.25), kNormalDensityUnits / 4);
+  EXPECT_EQ(normal_density_units(1e-9), 1);  // never zero units
+}
+
 TEST(Relax, SettlesBackToTheNormalDensity) {
   const DensityField field = generate_volume("block:dims=48");
   RelaxOptions options;

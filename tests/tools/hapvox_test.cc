@@ -357,6 +357,23 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
   expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
                          "/x.h5 --plastic --relax-tolerance inf",
                      "--relax-tolerance: must lie in [0, 10]");
+  // The material's normal density: a fraction in (0, 1], recorded in the session.
+  for (const char* bad : {"0", "-0.5", "1.5", "nan"}) {
+    expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
+                           "/x.h5 --plastic --normal-density " + bad,
+                       "--normal-density: must lie in (0, 1] (a fraction of density 1)");
+  }
+  expect_input_error(
+      "replay " + press_trace() + " --volume block -o " + dir + "/x.h5 --normal-density 0.5",
+      "--normal-density: needs --plastic");
+  const Result half =
+      run("replay " + source_path("traces/clay_stroke.csv") +
+          " --volume block:dims=96 --plastic --normal-density 0.5 -o " + dir + "/half.h5");
+  ASSERT_EQ(half.exit_code, 0) << half.err;
+  EXPECT_NE(half.out.find("conserved exactly"), std::string::npos) << half.out;
+  const Result half_info = run("info " + dir + "/half.h5");
+  EXPECT_NE(half_info.out.find("normal_density_units"), std::string::npos) << half_info.out;
+  EXPECT_NE(half_info.out.find("32768"), std::string::npos) << half_info.out;
 }
 
 // The whitespace-separated fields of the first line of `text` whose fields begin with
