@@ -34,8 +34,10 @@ std::size_t DoubleBufferedField::write_into(int index, engine::MassGrid& mass) {
 }
 
 std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
-                                         const std::atomic<bool>& reader_done) {
+                                         const std::atomic<bool>& reader_done,
+                                         std::vector<openvdb::Coord>* changed) {
   mass.take_changes(fresh_);
+  if (changed != nullptr) changed->insert(changed->end(), fresh_.begin(), fresh_.end());
   if (fresh_.empty() && owed_to_back_.empty()) return 0;
   const int back = 1 - front_.load(std::memory_order_relaxed);
   const std::size_t written = write_into(back, mass);
@@ -50,8 +52,10 @@ std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
   return written;
 }
 
-void DoubleBufferedField::publish_unsynchronized(engine::MassGrid& mass) {
+void DoubleBufferedField::publish_unsynchronized(engine::MassGrid& mass,
+                                                 std::vector<openvdb::Coord>* changed) {
   mass.take_changes(fresh_);
+  if (changed != nullptr) changed->insert(changed->end(), fresh_.begin(), fresh_.end());
   const int back = 1 - front_.load(std::memory_order_relaxed);
   write_into(back, mass);
   owed_to_back_.insert(owed_to_back_.end(), fresh_.begin(), fresh_.end());

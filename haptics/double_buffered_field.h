@@ -36,11 +36,14 @@ class DoubleBufferedField {
 
   /// Writer (relaxation thread): brings the back buffer up to date with `mass`, makes it
   /// the front, and waits (sleeping) until the reader reads it or `reader_done` is set.
-  /// Returns the number of voxels written.
-  std::size_t publish(engine::MassGrid& mass, const std::atomic<bool>& reader_done);
+  /// Returns the number of voxels written. With `changed`, appends the voxels the mass grid
+  /// changed since the last publication (for the render thread's feed).
+  std::size_t publish(engine::MassGrid& mass, const std::atomic<bool>& reader_done,
+                      std::vector<openvdb::Coord>* changed = nullptr);
 
   /// Writer, when no reader runs (before start or after join): both buffers up to date.
-  void publish_unsynchronized(engine::MassGrid& mass);
+  void publish_unsynchronized(engine::MassGrid& mass,
+                              std::vector<openvdb::Coord>* changed = nullptr);
 
   int front() const { return front_.load(std::memory_order_acquire); }
 

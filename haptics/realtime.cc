@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -70,8 +71,9 @@ struct RelaxCounters {
 void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
                 RelaxCounters& counters, Clock::time_point start,
                 std::vector<std::int64_t>& slice_ns, std::vector<std::int64_t>& slice_start_ns,
-                double& cpu_s, RelaxStageWork& max_slice_work) {
+                double& cpu_s, RelaxStageWork& max_slice_work, RenderFeed* feed) {
   const double cpu_start = thread_cpu_s();
+  std::vector<openvdb::Coord> published;
   auto last_mass = Clock::now();
   while (true) {
     const bool finishing = force_done.load(std::memory_order_acquire);
@@ -82,7 +84,13 @@ void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
     max_slice_work.deletions = std::max(max_slice_work.deletions, work.deletions);
     max_slice_work.relax_steps = std::max(max_slice_work.relax_steps, work.relax_steps);
     const std::size_t did = work.deletions + work.relax_steps;
-    if (sculpt.mass->has_changes()) sculpt.field->publish(*sculpt.mass, force_done);
+    if (sculpt.mass->has_changes()) {
+      sculpt.field->publish(*sculpt.mass, force_done, feed != nullptr ? &published : nullptr);
+    }
+    if (feed != nullptr && (!published.empty() || !feed->voxels.drained_backlog())) {
+      feed->voxels.offer(published, *sculpt.mass);
+      published.clear();
+    }
     counters.deleted.store(sculpt.mass->work().deleted_voxels, std::memory_order_relaxed);
     counters.relaxed.store(sculpt.mass->work().relaxed_voxels, std::memory_order_relaxed);
     if (Clock::now() - last_mass > std::chrono::milliseconds(50)) {
@@ -161,6 +169,10 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   RelaxStageWork max_slice_work;
   const double steal_before_s = machine_steal_s();
 
+  // The render thread's feed, made before any thread starts.
+  std::unique_ptr<RenderFeed> feed;
+  RenderTiming render_timing;
+  if (options.render_loop) feed = std::make_unique<RenderFeed>();
   const auto start = Clock::now() + std::chrono::milliseconds(5);
   std::thread force_thread([&] {
     pthread_setname_np(pthread_self(), "hapvox-force");
@@ -200,6 +212,10 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
         row.watchdog = 1;
         ++watchdog_trips;
       }
+      if (feed != nullptr) {
+        feed->tool.publish(RenderToolState{row.tool_position_mm, state.displacement_mm,
+                                           state.in_contact, static_cast<std::int64_t>(tick)});
+      }
       rows_done.store(tick + 1, std::memory_order_release);
     }
     if (hooks.loop_finished) hooks.loop_finished();
@@ -227,7 +243,17 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     relax_thread = std::thread([&] {
       pthread_setname_np(pthread_self(), "hapvox-relax");
       relax_loop(*sculpt, force_done, counters, start, relax_slice_ns, relax_slice_start_ns,
-                 relax_cpu_s, max_slice_work);
+                 relax_cpu_s, max_slice_work, feed.get());
+    });
+  }
+  std::thread render_thread;
+  if (feed != nullptr) {
+    feed->start = start;
+    render_thread = std::thread([&] {
+      pthread_setname_np(pthread_self(), "hapvox-render");
+      // Below the force thread: rendering fills both cores on llvmpipe otherwise.
+      setpriority(PRIO_PROCESS, 0, 10);
+      options.render_loop(*feed, render_timing);
     });
   }
 
@@ -302,7 +328,16 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   if (sculpt != nullptr) {
     // The threads are joined: apply any last changes, no reader to wait for.
     drain_relaxation(*sculpt->mass, *sculpt->channel);
-    sculpt->field->publish_unsynchronized(*sculpt->mass);
+    std::vector<openvdb::Coord> published;
+    sculpt->field->publish_unsynchronized(*sculpt->mass, feed != nullptr ? &published : nullptr);
+    if (feed != nullptr) {
+      // This thread is the voxel queue's producer now; the render thread still drains it.
+      feed->voxels.offer(published, *sculpt->mass);
+      while (!feed->voxels.drained_backlog()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        feed->voxels.offer({}, *sculpt->mass);
+      }
+    }
     sculpted.plastic_events = plastic_events;
     sculpted.queue_overflows = sculpt->channel->overflows();
     sculpted.max_queue_depth = max_queue_depth;
@@ -311,6 +346,26 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     sculpted.final_mass_units = sculpt->mass->total_mass_units();
     sculpted.settled = sculpt->mass->settled();
     if (sculpt_summary != nullptr) *sculpt_summary = sculpted;
+  }
+  if (feed != nullptr) {
+    feed->done.store(true, std::memory_order_release);
+    render_thread.join();
+    if (timing != nullptr) {
+      std::vector<double> frame_us(render_timing.frame_ns.size());
+      for (std::size_t i = 0; i < frame_us.size(); ++i) {
+        frame_us[i] = 1e-3 * static_cast<double>(render_timing.frame_ns[i]);
+      }
+      timing->render_frame = duration_stats(frame_us);
+      if (frame_us.size() > 1) {
+        const double span_s =
+            1e-9 * static_cast<double>(render_timing.frame_start_ns.back() +
+                                       render_timing.frame_ns.back() -
+                                       render_timing.frame_start_ns.front());
+        timing->render_fps = span_s > 0.0 ? static_cast<double>(frame_us.size()) / span_s : 0.0;
+      }
+      timing->render_queue_full = feed->voxels.full_events();
+      timing->render = std::move(render_timing);
+    }
   }
   return summary;
 }

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "haptics/double_buffered_field.h"
+#include "haptics/render_feed.h"
 #include "haptics/replay.h"
 #include "haptics/scheduler.h"
 
@@ -63,6 +64,11 @@ struct TimingSummary {
   std::size_t relax_slice_max_steps = 0;      // most relaxation steps one slice took
   std::vector<std::int64_t> relax_slice_ns;   // every slice that did work, in order
   std::vector<std::int64_t> relax_slice_start_ns;
+  // Render thread (empty without a render loop).
+  DurationStats render_frame;           // frame times
+  double render_fps = 0;                // frames / the render thread's span
+  std::uint64_t render_queue_full = 0;  // times the voxel queue was full (nothing lost)
+  RenderTiming render;
 };
 
 /// Median, p99, p99.9 and maximum of `values_us` (reorders nothing; copies).
@@ -84,6 +90,9 @@ struct RealtimeOptions {
   /// (the device must never get a stale force) and counts a watchdog trip.
   double watchdog_periods = 1.0;
   ForceThreadHooks hooks;
+  /// With a loop, a third thread renders: it is fed the force thread's tool pose and the
+  /// relaxation thread's changed voxels (haptics/render_feed.h), never blocking either.
+  RenderLoop render_loop;
 };
 
 /// Replays `device` in realtime. With `sculpt`, plastic changes flow to the relaxation

@@ -81,10 +81,32 @@ void drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel) {
   mass.finish_flows();
 }
 
+namespace {
+
+// The mass grid's changed voxels into the force model's field and to the renderer.
+std::size_t publish(engine::MassGrid& mass, engine::DensityField& mirror,
+                    const LockstepRender* render, std::vector<openvdb::Coord>& scratch) {
+  if (render == nullptr || !render->voxel_changed) return mass.publish_changes(mirror);
+  mass.take_changes(scratch);
+  auto out = mirror.mutable_grid().getAccessor();
+  for (const openvdb::Coord& ijk : scratch) {
+    const float rho = mass.density(ijk);
+    if (rho == 0.0f) {
+      out.setValueOff(ijk, 0.0f);
+    } else {
+      out.setValueOn(ijk, rho);
+    }
+    render->voxel_changed(ijk, rho);
+  }
+  return scratch.size();
+}
+
+}  // namespace
+
 ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, SculptContext* sculpt,
-                              SculptSummary* sculpt_summary) {
+                              SculptSummary* sculpt_summary, const LockstepRender* render) {
   using Clock = std::chrono::steady_clock;
   ReplaySummary summary;
   summary.ticks = device.tick_count();
@@ -106,6 +128,7 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
     sculpted.initial_mass_units = mass_units;
   }
   std::vector<double> compute_us(summary.ticks);
+  std::vector<openvdb::Coord> changed;
   const std::size_t progress_every = std::max<std::size_t>(1, summary.ticks / 100);
 
   for (std::size_t tick = 0; tick < summary.ticks; ++tick) {
@@ -123,7 +146,7 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
       const engine::RelaxWork before = sculpt->mass->work();
       run_relax_stage(*sculpt->mass, *sculpt->channel, sculpt->max_deletions_per_tick,
                       sculpt->relax_voxels_per_tick);
-      if (sculpt->mass->publish_changes(*sculpt->mirror) > 0) state.invalidate_cache();
+      if (publish(*sculpt->mass, *sculpt->mirror, render, changed) > 0) state.invalidate_cache();
       row.deleted_voxels =
           static_cast<std::int64_t>(sculpt->mass->work().deleted_voxels - before.deleted_voxels);
       row.relaxed_voxels =
@@ -142,12 +165,17 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
     summary.peak_force_n = std::max(summary.peak_force_n, row.force_n.norm());
     if (session != nullptr) session->append(row);
     if (progress && (tick + 1) % progress_every == 0) progress(tick + 1, summary.ticks);
+    if (render != nullptr && render->frame && render->every_ticks > 0 &&
+        (tick % render->every_ticks == 0 || tick + 1 == summary.ticks)) {
+      render->frame(tick, RenderToolState{row.tool_position_mm, state.displacement_mm,
+                                          state.in_contact, static_cast<std::int64_t>(tick)});
+    }
   }
   if (sculpt != nullptr) {
     // Whatever the channel still holds is applied before the summary.
     sculpt->channel->flush();
     drain_relaxation(*sculpt->mass, *sculpt->channel);
-    sculpt->mass->publish_changes(*sculpt->mirror);
+    publish(*sculpt->mass, *sculpt->mirror, render, changed);
     sculpted.queue_overflows = sculpt->channel->overflows();
     sculpted.deleted_voxels = sculpt->mass->work().deleted_voxels;
     sculpted.relaxed_voxels = sculpt->mass->work().relaxed_voxels;

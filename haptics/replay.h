@@ -10,6 +10,7 @@
 
 #include "engine/relax.h"
 #include "engine/tool_force.h"
+#include "haptics/render_feed.h"
 #include "haptics/session.h"
 #include "haptics/surface_channel.h"
 #include "haptics/trace.h"
@@ -127,10 +128,20 @@ using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 /// max_deletions_per_tick queued deletions, then at most relax_voxels_per_tick relaxation
 /// steps), and the publication of changed voxels into
 /// the field the force model reads. Results are bit-reproducible.
+/// Lockstep rendering: `frame` is called every `every_ticks` ticks (and after the last)
+/// with the tool pose of that tick; `voxel_changed` for every voxel the relaxation changed,
+/// as it is published to the force model's field, so a renderer's copy stays in step.
+struct LockstepRender {
+  std::size_t every_ticks = 100;
+  std::function<void(std::size_t tick, const RenderToolState& tool)> frame;
+  std::function<void(const openvdb::Coord& ijk, float density)> voxel_changed;
+};
+
 ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress = {}, SculptContext* sculpt = nullptr,
-                              SculptSummary* sculpt_summary = nullptr);
+                              SculptSummary* sculpt_summary = nullptr,
+                              const LockstepRender* render = nullptr);
 
 /// Percentile (0..100) of a sample by nearest rank; 0 for an empty sample.
 double percentile(std::vector<double> values, double pct);

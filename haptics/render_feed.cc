@@ -1,0 +1,50 @@
+#include "haptics/render_feed.h"
+
+namespace hapvox::haptics {
+
+void ToolStateMailbox::publish(const RenderToolState& state) noexcept {
+  const std::uint64_t s = sequence_.load(std::memory_order_relaxed);
+  sequence_.store(s + 1, std::memory_order_relaxed);
+  std::atomic_thread_fence(std::memory_order_release);
+  for (int a = 0; a < 3; ++a) {
+    values_[a].store(state.center_mm[a], std::memory_order_relaxed);
+    values_[3 + a].store(state.displacement_mm[a], std::memory_order_relaxed);
+  }
+  in_contact_.store(state.in_contact, std::memory_order_relaxed);
+  tick_.store(state.tick, std::memory_order_relaxed);
+  sequence_.store(s + 2, std::memory_order_release);
+}
+
+RenderToolState ToolStateMailbox::read() const noexcept {
+  RenderToolState state;
+  while (true) {
+    const std::uint64_t before = sequence_.load(std::memory_order_acquire);
+    if (before & 1u) continue;  // the writer is mid-update: it is a few stores from done
+    for (int a = 0; a < 3; ++a) {
+      state.center_mm[a] = values_[a].load(std::memory_order_relaxed);
+      state.displacement_mm[a] = values_[3 + a].load(std::memory_order_relaxed);
+    }
+    state.in_contact = in_contact_.load(std::memory_order_relaxed);
+    state.tick = tick_.load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (sequence_.load(std::memory_order_relaxed) == before) return state;
+  }
+}
+
+void VoxelPatchQueue::offer(const std::vector<openvdb::Coord>& coords, engine::MassGrid& mass) {
+  pending_.clear();
+  pending_.swap(backlog_);
+  pending_.insert(pending_.end(), coords.begin(), coords.end());
+  std::size_t i = 0;
+  for (; i < pending_.size(); ++i) {
+    // The density now, not when the change was made: a voxel waiting in the backlog goes
+    // out with its latest value.
+    if (!queue_.try_push(VoxelPatch{pending_[i], mass.density(pending_[i])})) break;
+  }
+  if (i < pending_.size()) {
+    full_events_.fetch_add(1, std::memory_order_relaxed);
+    backlog_.assign(pending_.begin() + static_cast<std::ptrdiff_t>(i), pending_.end());
+  }
+}
+
+}  // namespace hapvox::haptics

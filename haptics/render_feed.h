@@ -1,0 +1,99 @@
+#pragma once
+// What the render thread is fed in a realtime session, without ever blocking the force
+// thread or sharing a tree with the relaxation:
+//
+//   force thread  -> ToolStateMailbox  the latest tool pose each tick (a seqlock: the writer
+//                                       is wait-free, the reader retries a torn read)
+//   relax thread  -> VoxelPatchQueue   every voxel it changed, with its new density, over a
+//                                       bounded lock-free SPSC queue (atomic_queue); what
+//                                       does not fit waits in the relaxation thread's
+//                                       backlog and goes with its next slice, never lost
+//
+// The render thread keeps its own copy of the field (render::VolumeRenderer), so it reads
+// no OpenVDB tree another thread writes.
+
+#include <atomic_queue/atomic_queue.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "engine/relax.h"
+
+namespace hapvox::haptics {
+
+using Vec3d = engine::Vec3d;
+
+struct RenderToolState {
+  Vec3d center_mm = Vec3d::Zero();
+  Vec3d displacement_mm = Vec3d::Zero();  // u = x_n - x0
+  bool in_contact = false;
+  std::int64_t tick = -1;  // -1: nothing published yet
+};
+
+class ToolStateMailbox {
+ public:
+  /// Writer (force thread): wait-free, no allocation.
+  void publish(const RenderToolState& state) noexcept;
+  /// Reader (render thread): the latest complete state.
+  RenderToolState read() const noexcept;
+
+ private:
+  std::atomic<std::uint64_t> sequence_{0};  // odd while the writer is mid-update
+  std::atomic<double> values_[6] = {};
+  std::atomic<bool> in_contact_{false};
+  std::atomic<std::int64_t> tick_{-1};
+};
+
+struct VoxelPatch {
+  openvdb::Coord ijk;
+  float density = 0.0f;
+};
+
+class VoxelPatchQueue {
+ public:
+  static constexpr unsigned kCapacity = 1u << 16;
+
+  /// Producer (relaxation thread): offers `coords` with their current densities from
+  /// `mass`, and first whatever an earlier call could not fit. Never blocks.
+  void offer(const std::vector<openvdb::Coord>& coords, engine::MassGrid& mass);
+  /// Producer: true when nothing waits in the backlog.
+  bool drained_backlog() const { return backlog_.empty(); }
+  /// Consumer (render thread). False when empty.
+  bool pop(VoxelPatch& patch) { return queue_.try_pop(patch); }
+  /// Times the queue was full (the producer kept the rest for later).
+  std::uint64_t full_events() const { return full_events_.load(std::memory_order_relaxed); }
+
+ private:
+  atomic_queue::AtomicQueue2<VoxelPatch, kCapacity, true, true, false, true> queue_;
+  std::vector<openvdb::Coord> backlog_;  // producer-only
+  std::vector<openvdb::Coord> pending_;  // producer-only scratch
+  std::atomic<std::uint64_t> full_events_{0};
+};
+
+/// Frame timing of the render thread, filled by whoever renders.
+struct RenderTiming {
+  std::vector<std::int64_t> frame_start_ns;  // from the start of the run
+  std::vector<std::int64_t> frame_ns;        // render() to pixels read back
+  std::vector<std::int64_t> frame_tick;      // the tick whose pose the frame shows
+  std::uint64_t voxels_applied = 0;
+  std::uint64_t frames_written = 0;
+};
+
+struct RenderFeed {
+  std::chrono::steady_clock::time_point start;  // tick 0's deadline; set before threads start
+  ToolStateMailbox tool;
+  VoxelPatchQueue voxels;
+  /// Set once the force and relaxation threads are finished and every change is queued:
+  /// the render loop drains the queue, draws a last frame and returns.
+  std::atomic<bool> done{false};
+};
+
+/// A render loop for replay_realtime to run on its own thread: it must return soon after
+/// feed.done is set. Owns its GL context (made current on the calling thread).
+using RenderLoop = std::function<void(RenderFeed& feed, RenderTiming& timing)>;
+
+}  // namespace hapvox::haptics

@@ -1,0 +1,179 @@
+#include "tools/render_output.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+#include "engine/errors.h"
+
+namespace hapvox::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+void parse_size(const std::string& text, const std::string& flag, int& width, int& height) {
+  const auto x = text.find('x');
+  char* end = nullptr;
+  const long w = std::strtol(text.c_str(), &end, 10);
+  long h = w;
+  if (x != std::string::npos && end == text.c_str() + x) {
+    h = std::strtol(text.c_str() + x + 1, &end, 10);
+  }
+  if (text.empty() || *end != '\0' || w < 16 || h < 16 || w > 8192 || h > 8192) {
+    throw InputError(flag, "expected N or WxH with 16 <= N <= 8192, got '" + text + "'");
+  }
+  width = static_cast<int>(w);
+  height = static_cast<int>(h);
+}
+
+}  // namespace
+
+void RenderFlags::add_to(CLI::App& app, const std::string& prefix) {
+  const std::string p = "--" + prefix;
+  app.add_option(p + "transfer", transfer,
+                 "Transfer function: clay, ct-bone, ct-soft or a file (auto: ct-bone for "
+                 "files, clay for generators)")
+      ->capture_default_str();
+  app.add_option(p + "size", size, "Image size N or WxH, pixels")->capture_default_str();
+  app.add_option(p + "slices", slices, "View-aligned slices across the volume")
+      ->capture_default_str();
+  app.add_option(p + "tessellation", tessellation,
+                 "adaptive (fine only near the tool) or uniform (patches x patches)")
+      ->capture_default_str();
+  app.add_option(p + "patches", patches, "Patches per slice side (uniform)")->capture_default_str();
+  app.add_option(p + "kernel", kernel, "FFD falloff: wendland (compact) or paper (Eq. 10)")
+      ->capture_default_str();
+  app.add_option(p + "support-mm", support_mm, "Wendland support R (0: 3 tool radii)")
+      ->capture_default_str();
+  app.add_option(p + "azimuth-deg", azimuth_deg, "Camera azimuth")->capture_default_str();
+  app.add_option(p + "elevation-deg", elevation_deg, "Camera elevation")->capture_default_str();
+}
+
+RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume_spec,
+                                 const engine::DensityField& field, const std::string& prefix) {
+  const std::string p = "--" + prefix;
+  RenderSetup setup;
+  render::RenderSettings& s = setup.settings;
+  parse_size(f.size, p + "size", s.width, s.height);
+  if (f.slices < 1 || f.slices > 4096) throw InputError(p + "slices", "must lie in [1, 4096]");
+  if (f.patches < 1 || f.patches > 512) throw InputError(p + "patches", "must lie in [1, 512]");
+  s.mesh.slices = f.slices;
+  s.mesh.patches = f.patches;
+  if (f.tessellation == "adaptive") {
+    s.mesh.tessellation = render::Tessellation::kAdaptive;
+  } else if (f.tessellation == "uniform") {
+    s.mesh.tessellation = render::Tessellation::kUniform;
+  } else {
+    throw InputError(p + "tessellation",
+                     "expected adaptive or uniform, got '" + f.tessellation + "'");
+  }
+  if (f.kernel == "wendland") {
+    s.mesh.kernel = render::FfdKernel::kWendland;
+  } else if (f.kernel == "paper") {
+    s.mesh.kernel = render::FfdKernel::kPaper;
+  } else {
+    throw InputError(p + "kernel", "expected wendland or paper, got '" + f.kernel + "'");
+  }
+  if (!(f.support_mm >= 0.0) || !std::isfinite(f.support_mm)) {
+    throw InputError(p + "support-mm", "must be zero (3 tool radii) or positive");
+  }
+  if (!std::isfinite(f.azimuth_deg) || !std::isfinite(f.elevation_deg)) {
+    throw InputError(p + "azimuth-deg", "camera angles must be finite");
+  }
+  s.mesh.support_mm = f.support_mm;
+  s.mesh.voxel_mm = field.voxel_size_mm().minCoeff();
+  setup.transfer_spec = f.transfer != "auto"         ? f.transfer
+                        : fs::exists(volume_spec) ? "ct-bone"
+                                                  : "clay";
+  render::TransferFunction::from_spec(setup.transfer_spec);  // validated now, loaded later
+  setup.azimuth_deg = f.azimuth_deg;
+  setup.elevation_deg = f.elevation_deg;
+  return setup;
+}
+
+FrameRecorder::FrameRecorder(const engine::DensityField& field, const RenderSetup& setup,
+                             std::string dir, double tool_radius_mm)
+    : dir_(std::move(dir)), tool_radius_mm_(tool_radius_mm), settings_(setup.settings) {
+  if (fs::exists(dir_) && !fs::is_directory(dir_)) {
+    throw InputError(dir_, "exists and is not a directory");
+  }
+  context_ = std::make_unique<render::GlContext>();
+  renderer_ = std::make_unique<render::VolumeRenderer>(
+      field, render::TransferFunction::from_spec(setup.transfer_spec));
+  camera_ = render::OrbitCamera::framing(field.world_min_mm(), field.world_max_mm(),
+                                         setup.azimuth_deg, setup.elevation_deg);
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec) throw InputError(dir_, "cannot be created: " + ec.message());
+}
+
+FrameRecorder::~FrameRecorder() {
+  try {
+    context_->make_current();
+  } catch (const render::RenderError&) {
+    return;  // cannot free GL objects without a context; the process ends soon anyway
+  }
+  renderer_.reset();
+}
+
+render::Image FrameRecorder::render_now(const haptics::RenderToolState& tool,
+                                        const render::OrbitCamera& camera,
+                                        render::FrameStats* stats) {
+  render::ToolPose pose;
+  if (tool.tick >= 0) {
+    pose.center_mm = tool.center_mm;
+    pose.displacement_mm = tool.displacement_mm;
+    pose.in_contact = tool.in_contact;
+    pose.radius_mm = tool_radius_mm_;
+  }
+  return renderer_->render(camera, pose, settings_, stats);
+}
+
+void FrameRecorder::draw(const haptics::RenderToolState& tool, const render::OrbitCamera* camera) {
+  render::FrameStats stats;
+  const render::Image image = render_now(tool, camera != nullptr ? *camera : camera_, &stats);
+  char name[32];
+  std::snprintf(name, sizeof name, "frame_%04d.png", frames_++);
+  render::write_png(image, (fs::path(dir_) / name).string());
+  frame_ms_total_ += stats.mesh_ms + stats.upload_ms + stats.draw_ms + stats.read_ms;
+}
+
+haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
+  context_->release();
+  return [this, fps](haptics::RenderFeed& feed, haptics::RenderTiming& timing) {
+    using Clock = std::chrono::steady_clock;
+    context_->make_current();
+    const auto period = std::chrono::nanoseconds(std::llround(1e9 / fps));
+    auto next = Clock::now();
+    haptics::VoxelPatch patch;
+    while (true) {
+      const bool finishing = feed.done.load(std::memory_order_acquire);
+      while (feed.voxels.pop(patch)) {
+        renderer_->set_voxel(patch.ijk, patch.density);
+        ++timing.voxels_applied;
+      }
+      const haptics::RenderToolState tool = feed.tool.read();
+      const auto begin = Clock::now();
+      draw(tool);
+      timing.frame_start_ns.push_back(
+          std::chrono::duration_cast<std::chrono::nanoseconds>(begin - feed.start).count());
+      timing.frame_ns.push_back(
+          std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - begin).count());
+      timing.frame_tick.push_back(tool.tick);
+      ++timing.frames_written;
+      if (finishing) break;
+      // Absolute deadlines; a frame that ran long is not made up for.
+      next = std::max(next + period, Clock::now());
+      while (Clock::now() < next && !feed.done.load(std::memory_order_acquire)) {
+        std::this_thread::sleep_for(std::min<Clock::duration>(next - Clock::now(),
+                                                              std::chrono::milliseconds(5)));
+      }
+    }
+    context_->release();
+  };
+}
+
+}  // namespace hapvox::cli

@@ -1,0 +1,80 @@
+#pragma once
+// What `hapvox render` and `hapvox replay --render-dir` share: the rendering flags and a
+// FrameRecorder that draws frames of a session to DIR/frame_NNNN.png, in lockstep (a frame
+// every N ticks) or on a realtime render thread fed by haptics::RenderFeed.
+
+#include <CLI/CLI.hpp>
+#include <memory>
+#include <string>
+
+#include "engine/density_field.h"
+#include "haptics/render_feed.h"
+#include "render/gl_context.h"
+#include "render/volume_renderer.h"
+
+namespace hapvox::cli {
+
+/// --transfer, --size, --slices, --tessellation, --patches, --kernel, --support-mm,
+/// --azimuth-deg, --elevation-deg (with a prefix such as "render-" where a command has
+/// flags of its own).
+struct RenderFlags {
+  std::string transfer = "auto";
+  std::string size = "512";
+  int slices = 256;
+  std::string tessellation = "adaptive";
+  int patches = 20;
+  std::string kernel = "wendland";
+  double support_mm = 0.0;
+  double azimuth_deg = 30.0;
+  double elevation_deg = 25.0;
+  void add_to(CLI::App& app, const std::string& prefix = "");
+};
+
+/// Checked settings; throws InputError naming the flag.
+struct RenderSetup {
+  render::RenderSettings settings;
+  std::string transfer_spec;
+  double azimuth_deg = 0, elevation_deg = 0;
+};
+RenderSetup resolve_render_flags(const RenderFlags& flags, const std::string& volume_spec,
+                                 const engine::DensityField& field,
+                                 const std::string& prefix = "");
+
+class FrameRecorder {
+ public:
+  /// Creates `dir`, an EGL context current on this thread and a renderer of `field`.
+  FrameRecorder(const engine::DensityField& field, const RenderSetup& setup, std::string dir,
+                double tool_radius_mm);
+  /// Takes the context back to this thread to free the GL objects.
+  ~FrameRecorder();
+  FrameRecorder(const FrameRecorder&) = delete;
+  FrameRecorder& operator=(const FrameRecorder&) = delete;
+
+  /// Renders the frame for this tool state and writes the next frame_NNNN.png.
+  void draw(const haptics::RenderToolState& tool, const render::OrbitCamera* camera = nullptr);
+  void set_voxel(const openvdb::Coord& ijk, float density) { renderer_->set_voxel(ijk, density); }
+
+  /// A render loop for a realtime session: frames at `fps` until the feed is done, then a
+  /// last one. Releases the context from this thread; the loop takes it.
+  haptics::RenderLoop realtime_loop(double fps);
+
+  int frames() const { return frames_; }
+  double frame_ms_total() const { return frame_ms_total_; }
+  const render::OrbitCamera& camera() const { return camera_; }
+  const render::GlContext& context() const { return *context_; }
+
+ private:
+  render::Image render_now(const haptics::RenderToolState& tool, const render::OrbitCamera& camera,
+                           render::FrameStats* stats);
+
+  std::string dir_;
+  double tool_radius_mm_;
+  render::RenderSettings settings_;
+  render::OrbitCamera camera_;
+  std::unique_ptr<render::GlContext> context_;
+  std::unique_ptr<render::VolumeRenderer> renderer_;
+  int frames_ = 0;
+  double frame_ms_total_ = 0.0;
+};
+
+}  // namespace hapvox::cli
