@@ -251,8 +251,20 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     feed->start = start;
     render_thread = std::thread([&] {
       pthread_setname_np(pthread_self(), "hapvox-render");
-      // Below the force thread: rendering fills both cores on llvmpipe otherwise.
+      // Below the force thread and off its CPU: llvmpipe fills every core it may use, and
+      // the rasteriser threads it starts inherit this thread's nice value and affinity.
       setpriority(PRIO_PROCESS, 0, 10);
+      const long online = sysconf(_SC_NPROCESSORS_ONLN);
+      if (options.scheduler.pin_cpu && online > 1) {
+        const int force_cpu = options.scheduler.cpu >= 0 ? options.scheduler.cpu
+                                                         : static_cast<int>(online - 1);
+        cpu_set_t others;
+        CPU_ZERO(&others);
+        for (int cpu = 0; cpu < online; ++cpu) {
+          if (cpu != force_cpu) CPU_SET(cpu, &others);
+        }
+        pthread_setaffinity_np(pthread_self(), sizeof others, &others);
+      }
       options.render_loop(*feed, render_timing);
     });
   }

@@ -37,8 +37,10 @@ void prepare_process(const SchedulerOptions& options, SchedulerReport& report) {
     report.memory_lock = "off: not requested; pages may fault in the loop";
   } else if (kSanitizerBuild) {
     report.memory_lock = "off: sanitizer build; pages may fault in the loop";
-  } else if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
-    report.memory_lock = "on (mlockall current and future)";
+  } else if (mlockall(options.lock_future_memory ? MCL_CURRENT | MCL_FUTURE : MCL_CURRENT) == 0) {
+    report.memory_lock = options.lock_future_memory
+                             ? "on (mlockall current and future)"
+                             : "on (mlockall current; not future: the render thread maps per frame)";
   } else {
     report.memory_lock = refused(errno, "pages may fault in the loop (raise ulimit -l)");
   }

@@ -17,6 +17,9 @@ namespace hapvox::haptics {
 
 struct SchedulerOptions {
   bool lock_memory = true;
+  /// Also lock what is mapped later (MCL_FUTURE). Off when a render thread runs: llvmpipe
+  /// maps buffers every frame, and locking (pre-faulting) each one slows frames tenfold.
+  bool lock_future_memory = true;
   bool realtime_policy = true;
   int fifo_priority = 80;  // 1..99
   bool pin_cpu = true;

@@ -27,7 +27,11 @@ hid_t create_column(hid_t file, const char* name, hid_t file_type, hsize_t colum
   const hid_t space = H5Screate_simple(rank, dims, max_dims);
   const hid_t props = H5Pcreate(H5P_DATASET_CREATE);
   H5Pset_chunk(props, rank, chunk);
-  const hid_t dataset = H5Dcreate2(file, name, file_type, space, H5P_DEFAULT, props, H5P_DEFAULT);
+  // Groups on the path ("render/frame_ns") are made as needed.
+  const hid_t link_props = H5Pcreate(H5P_LINK_CREATE);
+  H5Pset_create_intermediate_group(link_props, 1);
+  const hid_t dataset = H5Dcreate2(file, name, file_type, space, link_props, props, H5P_DEFAULT);
+  H5Pclose(link_props);
   H5Pclose(props);
   H5Sclose(space);
   HAPVOX_CHECK(dataset >= 0);

@@ -12,6 +12,7 @@
 #include "engine/errors.h"
 #include "haptics/realtime.h"
 #include "tools/cli.h"
+#include "tools/render_output.h"
 
 namespace hapvox::cli {
 namespace {
@@ -39,6 +40,11 @@ struct ReplayFlags {
   int cpu = -1;
   bool no_pin = false;
   double watchdog_periods = 1.0;
+  // Rendering (a render thread in realtime, a frame every N ticks in lockstep).
+  std::string render_dir;
+  double render_fps = 30.0;
+  std::size_t render_every_ticks = 100;
+  RenderFlags render;
 };
 
 // What a replay measured, for the caller to judge.
@@ -149,6 +155,18 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   resample_options.max_gap_s = f.trace.max_gap_s;
   const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
 
+  // The render output before the session: a machine without EGL fails before any file.
+  std::unique_ptr<FrameRecorder> recorder;
+  if (!f.render_dir.empty()) {
+    if (!(f.render_fps > 0.0 && f.render_fps <= 240.0)) {
+      throw InputError("--render-fps", "must lie in (0, 240]");
+    }
+    if (f.render_every_ticks < 1) throw InputError("--render-every-ticks", "must be at least 1");
+    const RenderSetup setup = resolve_render_flags(f.render, f.volume, field, "render-");
+    recorder = std::make_unique<FrameRecorder>(field, setup, f.render_dir,
+                                               0.5 * model.options().tool.diameter_mm,
+                                               f.realtime);
+  }
   haptics::SessionWriter session(f.output);
   session.set_attribute("command_line", command_line);
   session.set_attribute("trace_file", f.trace_path);
@@ -225,12 +243,27 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       realtime_options.scheduler.pin_cpu = !f.no_pin;
       realtime_options.scheduler.cpu = f.cpu;
       realtime_options.watchdog_periods = f.watchdog_periods;
+      if (recorder) {
+        realtime_options.render_loop = recorder->realtime_loop(f.render_fps);
+        realtime_options.scheduler.lock_future_memory = false;
+      }
       s = haptics::replay_realtime(model, device, f.limits, &session, progress,
                                    f.plastic ? &realtime_sculpt : nullptr, &sculpted, &timing,
                                    realtime_options);
     } else {
+      haptics::LockstepRender render;
+      render.every_ticks = f.render_every_ticks;
+      if (recorder) {
+        render.frame = [&](std::size_t, const haptics::RenderToolState& tool) {
+          recorder->draw(tool);
+        };
+        render.voxel_changed = [&](const openvdb::Coord& ijk, float rho) {
+          recorder->set_voxel(ijk, rho);
+        };
+      }
       s = haptics::replay_lockstep(model, device, f.limits, &session, progress,
-                                   f.plastic ? &sculpt : nullptr, &sculpted);
+                                   f.plastic ? &sculpt : nullptr, &sculpted,
+                                   recorder ? &render : nullptr);
     }
   } catch (...) {
     session.abandon();
@@ -272,6 +305,22 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       session.set_attribute("summary_relax_busy_fraction", timing.relax_busy_fraction);
       session.write_array("timing/relax_slice_ns", timing.relax_slice_ns, "ns");
       session.write_array("timing/relax_slice_start_ns", timing.relax_slice_start_ns, "ns");
+    }
+  }
+  if (recorder) {
+    session.set_attribute("render_dir", f.render_dir);
+    session.set_attribute("summary_render_frames", static_cast<std::int64_t>(recorder->frames()));
+    if (f.realtime) {
+      session.set_attribute("render_target_fps", f.render_fps);
+      session.set_attribute("summary_render_fps", timing.render_fps);
+      session.set_attribute("summary_render_frame_p50_us", timing.render_frame.p50_us);
+      session.set_attribute("summary_render_frame_p99_us", timing.render_frame.p99_us);
+      session.set_attribute("summary_render_frame_max_us", timing.render_frame.max_us);
+      session.write_array("render/frame_start_ns", timing.render.frame_start_ns, "ns");
+      session.write_array("render/frame_ns", timing.render.frame_ns, "ns");
+      session.write_array("render/frame_tick", timing.render.frame_tick, "tick");
+    } else {
+      session.set_attribute("render_every_ticks", static_cast<std::int64_t>(f.render_every_ticks));
     }
   }
   if (f.plastic) {
@@ -343,6 +392,19 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                   f.sculpt_out.c_str());
     }
   }
+  if (recorder) {
+    if (f.realtime) {
+      std::printf("  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
+                  "p99 %.1f ms, max %.1f ms\n",
+                  recorder->frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
+                  1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
+                  1e-3 * timing.render_frame.max_us);
+    } else {
+      std::printf("  render           %d frames to %s, every %zu ticks, %.1f ms a frame\n",
+                  recorder->frames(), f.render_dir.c_str(), f.render_every_ticks,
+                  recorder->frame_ms_total() / std::max(1, recorder->frames()));
+    }
+  }
   if (s.trace_gaps > 0) {
     std::printf("  trace gaps       %d (tool held for %.3f s)\n", s.trace_gaps, s.trace_held_s);
   }
@@ -366,6 +428,15 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
   flags->trace.add_to(*cmd);
   flags->transform.add_to(*cmd);
   flags->force.add_to(*cmd);
+  cmd->add_option("--render-dir", flags->render_dir,
+                  "Render frames of the session to DIR/frame_NNNN.png (a render thread in "
+                  "realtime, every --render-every-ticks in lockstep)");
+  cmd->add_option("--render-fps", flags->render_fps, "Realtime: the render thread's target rate")
+      ->capture_default_str();
+  cmd->add_option("--render-every-ticks", flags->render_every_ticks, "Lockstep: a frame every N ticks")
+      ->capture_default_str();
+  flags->render.size = "256";  // frames beside a force loop: small by default
+  flags->render.add_to(*cmd, "render-");
   cmd->add_flag("--plastic", flags->plastic,
                 "Sculpt: incremental plasticity, deletion and progressive relaxation");
   cmd->add_option("--yield-stress-pa", flags->force.options.plastic.yield_stress_pa,

@@ -95,22 +95,35 @@ RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume
 }
 
 FrameRecorder::FrameRecorder(const engine::DensityField& field, const RenderSetup& setup,
-                             std::string dir, double tool_radius_mm)
-    : dir_(std::move(dir)), tool_radius_mm_(tool_radius_mm), settings_(setup.settings) {
+                             std::string dir, double tool_radius_mm, bool on_render_thread)
+    : field_(field),
+      setup_(setup),
+      dir_(std::move(dir)),
+      tool_radius_mm_(tool_radius_mm),
+      settings_(setup.settings) {
   if (fs::exists(dir_) && !fs::is_directory(dir_)) {
     throw InputError(dir_, "exists and is not a directory");
   }
-  context_ = std::make_unique<render::GlContext>();
-  renderer_ = std::make_unique<render::VolumeRenderer>(
-      field, render::TransferFunction::from_spec(setup.transfer_spec));
   camera_ = render::OrbitCamera::framing(field.world_min_mm(), field.world_max_mm(),
                                          setup.azimuth_deg, setup.elevation_deg);
+  if (on_render_thread) {
+    render::GlContext probe;  // a missing EGL fails here, before any output
+  } else {
+    make_renderer();
+  }
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (ec) throw InputError(dir_, "cannot be created: " + ec.message());
 }
 
+void FrameRecorder::make_renderer() {
+  context_ = std::make_unique<render::GlContext>();
+  renderer_ = std::make_unique<render::VolumeRenderer>(
+      field_, render::TransferFunction::from_spec(setup_.transfer_spec));
+}
+
 FrameRecorder::~FrameRecorder() {
+  if (!context_) return;
   try {
     context_->make_current();
   } catch (const render::RenderError&) {
@@ -142,10 +155,9 @@ void FrameRecorder::draw(const haptics::RenderToolState& tool, const render::Orb
 }
 
 haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
-  context_->release();
   return [this, fps](haptics::RenderFeed& feed, haptics::RenderTiming& timing) {
     using Clock = std::chrono::steady_clock;
-    context_->make_current();
+    make_renderer();
     const auto period = std::chrono::nanoseconds(std::llround(1e9 / fps));
     auto next = Clock::now();
     haptics::VoxelPatch patch;
@@ -172,7 +184,8 @@ haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
                                                               std::chrono::milliseconds(5)));
       }
     }
-    context_->release();
+    renderer_.reset();
+    context_.reset();
   };
 }
 

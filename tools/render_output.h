@@ -42,9 +42,12 @@ RenderSetup resolve_render_flags(const RenderFlags& flags, const std::string& vo
 
 class FrameRecorder {
  public:
-  /// Creates `dir`, an EGL context current on this thread and a renderer of `field`.
+  /// Creates `dir`, an EGL context current on this thread and a renderer of `field`. With
+  /// `on_render_thread`, only checks that a context can be made: the render loop makes its
+  /// own on the render thread, whose priority and CPU Mesa's rasteriser threads inherit.
+  /// `field` must outlive the recorder and not change until the renderer is made.
   FrameRecorder(const engine::DensityField& field, const RenderSetup& setup, std::string dir,
-                double tool_radius_mm);
+                double tool_radius_mm, bool on_render_thread = false);
   /// Takes the context back to this thread to free the GL objects.
   ~FrameRecorder();
   FrameRecorder(const FrameRecorder&) = delete;
@@ -54,8 +57,9 @@ class FrameRecorder {
   void draw(const haptics::RenderToolState& tool, const render::OrbitCamera* camera = nullptr);
   void set_voxel(const openvdb::Coord& ijk, float density) { renderer_->set_voxel(ijk, density); }
 
-  /// A render loop for a realtime session: frames at `fps` until the feed is done, then a
-  /// last one. Releases the context from this thread; the loop takes it.
+  /// A render loop for a realtime session (a recorder made `on_render_thread`): makes the
+  /// context and renderer, draws frames at `fps` until the feed is done, then a last one,
+  /// and frees them again on that thread.
   haptics::RenderLoop realtime_loop(double fps);
 
   int frames() const { return frames_; }
@@ -67,6 +71,10 @@ class FrameRecorder {
   render::Image render_now(const haptics::RenderToolState& tool, const render::OrbitCamera& camera,
                            render::FrameStats* stats);
 
+  void make_renderer();
+
+  const engine::DensityField& field_;
+  RenderSetup setup_;
   std::string dir_;
   double tool_radius_mm_;
   render::RenderSettings settings_;

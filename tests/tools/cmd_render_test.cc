@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "haptics/session.h"
 #include "render/image.h"
 #include "test_data.h"
 
@@ -98,6 +99,39 @@ TEST(RenderCli, BadInputGivesOneLineNamingTheProblemAndCreatesNothing) {
   const auto r = run_hapvox("render block -o " + dir + "/file");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "hapvox: error: " + dir + "/file: exists and is not a directory\n");
+}
+
+TEST(RenderCli, LockstepReplayRendersEveryNTicks) {
+  const std::string dir = scratch_dir();
+  const auto r = run_hapvox("replay " + source_path("traces/engine_press.csv") + " --volume " +
+                            source_path("data/engine_256x256x128_uint8.nrrd") + " -o " + dir +
+                            "/s.h5 -q --render-dir " + dir + "/frames --render-every-ticks 1000 " +
+                            "--render-size 64 --render-slices 64");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(haptics::read_session_info(dir + "/s.h5").complete);
+  // Frames at ticks 0, 1000, 2000 and the last one.
+  EXPECT_TRUE(fs::exists(dir + "/frames/frame_0003.png"));
+  EXPECT_FALSE(fs::exists(dir + "/frames/frame_0004.png"));
+  EXPECT_NE(r.out.find("render           4 frames"), std::string::npos) << r.out;
+}
+
+TEST(RenderCli, RealtimeReplayWithARenderThreadRecordsFrameTimes) {
+  const std::string dir = scratch_dir();
+  const auto r = run_hapvox("replay " + source_path("traces/clay_stroke.csv") +
+                            " --volume block:dims=96 --plastic --realtime -q -o " + dir +
+                            "/rt.h5 --render-dir " + dir + "/frames --render-size 64 " +
+                            "--render-slices 48 --render-fps 10");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("render thread"), std::string::npos) << r.out;
+  const auto frame_ns = haptics::read_session_column(dir + "/rt.h5", "/render/frame_ns");
+  const auto ticks = haptics::read_session_column(dir + "/rt.h5", "/render/frame_tick");
+  ASSERT_GE(frame_ns.size(), 5u);  // 6.4 s at up to 10 fps
+  EXPECT_EQ(ticks.size(), frame_ns.size());
+  for (std::size_t i = 1; i < ticks.size(); ++i) EXPECT_GE(ticks[i], ticks[i - 1]);
+  // One PNG a frame.
+  EXPECT_EQ(static_cast<std::size_t>(std::distance(fs::directory_iterator(dir + "/frames"),
+                                                   fs::directory_iterator{})),
+            frame_ns.size());
 }
 
 TEST(RenderCli, BenchRenderPrintsOursBesideTheNaiveMeshWithPsnr) {
