@@ -48,12 +48,15 @@ std::string slurp(const std::string& path) {
 }
 }  // namespace
 
-CommandResult run_hapvox(const std::string& args) {
+CommandResult run_hapvox(const std::string& args) { return run_hapvox_env("", args); }
+
+CommandResult run_hapvox_env(const std::string& environment, const std::string& args) {
   // Beside the test's scratch directory, not in it: the test may look at that one.
   const std::string base = scratch_dir_name();
   const std::string out = base + "_stdout.txt";
   const std::string err = base + "_stderr.txt";
-  const std::string command = hapvox_binary() + " " + args + " >" + out + " 2>" + err;
+  const std::string command =
+      environment + " " + hapvox_binary() + " " + args + " >" + out + " 2>" + err;
   const int status = std::system(command.c_str());
   CommandResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

@@ -21,5 +21,7 @@ struct CommandResult {
 /// Runs `hapvox ARGS` (a shell command line), capturing stdout and stderr in files unique
 /// to the running test (ctest runs tests in parallel).
 CommandResult run_hapvox(const std::string& args);
+/// The same with environment assignments ("NAME=value ...") before the command.
+CommandResult run_hapvox_env(const std::string& environment, const std::string& args);
 
 }  // namespace hapvox::testing

@@ -16,6 +16,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::run_hapvox;
+using testing::run_hapvox_env;
 using testing::scratch_dir;
 using testing::source_path;
 
@@ -99,6 +100,27 @@ TEST(RenderCli, BadInputGivesOneLineNamingTheProblemAndCreatesNothing) {
   const auto r = run_hapvox("render block -o " + dir + "/file");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "hapvox: error: " + dir + "/file: exists and is not a directory\n");
+}
+
+TEST(RenderCli, AMachineWithoutEglGetsAClearErrorAndNoOutput) {
+  // glvnd with no vendor library: what a machine without Mesa's EGL looks like.
+  const std::string dir = scratch_dir();
+  const auto r = run_hapvox_env("__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent",
+                                "render block -o " + dir + "/frames");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err,
+            "hapvox: error: EGL: the surfaceless platform (EGL_MESA_platform_surfaceless) is not "
+            "available; install Mesa's EGL (Debian: libegl-mesa0 libgl1-mesa-dri)\n");
+  EXPECT_FALSE(fs::exists(dir + "/frames"));
+  // And a replay asked to render writes no session either.
+  const auto replay = run_hapvox_env(
+      "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent",
+      "replay " + source_path("traces/engine_press.csv") + " --volume block -o " + dir +
+          "/s.h5 --render-dir " + dir + "/frames -q");
+  EXPECT_EQ(replay.exit_code, 2);
+  EXPECT_EQ(replay.err.rfind("hapvox: error: EGL: ", 0), 0u) << replay.err;
+  EXPECT_FALSE(fs::exists(dir + "/s.h5"));
+  EXPECT_FALSE(fs::exists(dir + "/s.h5.partial"));
 }
 
 TEST(RenderCli, LockstepReplayRendersEveryNTicks) {
