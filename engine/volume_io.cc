@@ -832,8 +832,8 @@ constexpr float kMaxDensity = 1000.0f;
 void check_vdb_in_child(const std::string& path) {
 #if defined(__SANITIZE_THREAD__)
   // ThreadSanitizer kills the child of a multithreaded fork: there, read directly.
-  std::ifstream status("/proc/self/status");
-  for (std::string line; std::getline(status, line);) {
+  std::ifstream proc_status("/proc/self/status");
+  for (std::string line; std::getline(proc_status, line);) {
     if (line.rfind("Threads:", 0) == 0 && std::stoi(line.substr(8)) > 1) return;
   }
 #endif

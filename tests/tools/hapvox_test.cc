@@ -29,11 +29,7 @@ using testing::hapvox_binary;
 using testing::scratch_dir;
 using testing::source_path;
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using Result = testing::CommandResult;
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -42,21 +38,7 @@ std::string slurp(const std::string& path) {
   return text.str();
 }
 
-Result run(const std::string& args) {
-  // ctest runs tests in parallel: capture files are unique to the test.
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const std::string dir = fs::temp_directory_path().string() + "/hapvox_cli_" +
-                          info->test_suite_name() + "_" + info->name();
-  const std::string out = dir + "_out.txt";
-  const std::string err = dir + "_err.txt";
-  const std::string command = hapvox_binary() + " " + args + " >" + out + " 2>" + err;
-  const int status = std::system(command.c_str());
-  Result r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
+Result run(const std::string& args) { return testing::run_hapvox(args); }
 
 void write_file(const std::string& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
