@@ -116,36 +116,33 @@ struct BlockScene {
     tool.displacement_mm = Vector3d(0, 0, -3.0);
     tool.in_contact = true;
   }
-  // Pixel box of the region the FFD may move (tool radius + support, plus the push).
-  Eigen::Vector4i reach_box() const {
-    const double reach = tool.radius_mm + 3.0 * tool.radius_mm + 3.0;
-    return project_box(camera, settings,
-                       box_corners(tool.center_mm - Vector3d::Constant(reach),
-                                   tool.center_mm + Vector3d::Constant(reach)));
-  }
 };
 
-TEST(VolumeRenderer, AnElasticPressDisplacesTheImageNearTheToolAndNowhereFar) {
-  context();
-  BlockScene scene;
-  VolumeRenderer renderer(scene.field, TransferFunction::from_spec("clay"));
-  ToolPose resting = scene.tool;
+// Renders `tool` pressing and the same tool resting (no displacement); the image must
+// change where the tool presses and stay the same beyond the kernel's reach.
+void expect_press_is_local(VolumeRenderer& renderer, const OrbitCamera& camera,
+                           const RenderSettings& settings, const ToolPose& tool) {
+  ToolPose resting = tool;
   resting.in_contact = false;
-  const Image before = renderer.render(scene.camera, resting, scene.settings);
-  const Image pressed = renderer.render(scene.camera, scene.tool, scene.settings);
-  const Eigen::Vector4i near = scene.reach_box();
+  const Image before = renderer.render(camera, resting, settings);
+  const Image pressed = renderer.render(camera, tool, settings);
+  const double reach = tool.radius_mm + 3.0 * tool.radius_mm + tool.displacement_mm.norm();
+  const Eigen::Vector4i near =
+      project_box(camera, settings,
+                  box_corners(tool.center_mm - Vector3d::Constant(reach),
+                              tool.center_mm + Vector3d::Constant(reach)));
   // Where the tool presses: the image changes clearly.
-  const Eigen::Vector4i at_tool = project_box(
-      scene.camera, scene.settings,
-      box_corners(scene.tool.center_mm - Vector3d::Constant(scene.tool.radius_mm),
-                  scene.tool.center_mm + Vector3d::Constant(scene.tool.radius_mm)));
+  const Eigen::Vector4i at_tool =
+      project_box(camera, settings,
+                  box_corners(tool.center_mm - Vector3d::Constant(tool.radius_mm),
+                              tool.center_mm + Vector3d::Constant(tool.radius_mm)));
   EXPECT_GT(mean_abs_difference(before, pressed, at_tool[0], at_tool[1], at_tool[2], at_tool[3]),
             2.0);
   // Far from it: the same image (to rounding in the re-tessellated slices).
   double far_sum = 0.0;
   std::size_t far_count = 0, far_changed = 0;
-  for (int y = 0; y < scene.settings.height; ++y) {
-    for (int x = 0; x < scene.settings.width; ++x) {
+  for (int y = 0; y < settings.height; ++y) {
+    for (int x = 0; x < settings.width; ++x) {
       if (x >= near[0] - 2 && x < near[2] + 2 && y >= near[1] - 2 && y < near[3] + 2) continue;
       const double d = mean_abs_difference(before, pressed, x, y, x + 1, y + 1);
       far_sum += d;
@@ -157,7 +154,30 @@ TEST(VolumeRenderer, AnElasticPressDisplacesTheImageNearTheToolAndNowhereFar) {
   EXPECT_LT(far_sum / far_count, 0.01);
   EXPECT_LT(far_changed, far_count / 1000);
   // And no vertex was moved in contact-free frames.
-  EXPECT_EQ(renderer.render(scene.camera, resting, scene.settings).rgba, before.rgba);
+  EXPECT_EQ(renderer.render(camera, resting, settings).rgba, before.rgba);
+}
+
+TEST(VolumeRenderer, AnElasticPressDisplacesTheImageNearTheToolAndNowhereFar) {
+  context();
+  BlockScene scene;
+  VolumeRenderer renderer(scene.field, TransferFunction::from_spec("clay"));
+  expect_press_is_local(renderer, scene.camera, scene.settings, scene.tool);
+}
+
+TEST(VolumeRenderer, AnElasticPressOnTheEngineShowsWhereTheToolPressesOnly) {
+  // The bundled trace's press: the 8 mm tool 3 mm into the flat top of the engine block
+  // (face at z = 107.5 mm), seen from close by.
+  EngineView view;
+  view.settings.draw_tool = false;
+  ToolPose tool;
+  tool.radius_mm = 4.0;
+  tool.center_mm = Vector3d(128.0, 64.0, 107.5 + 4.0 - 3.0);
+  tool.displacement_mm = Vector3d(0, 0, -3.0);
+  tool.in_contact = true;
+  OrbitCamera close = view.camera;
+  close.target_mm = tool.center_mm;
+  close.distance_mm = 120.0;
+  expect_press_is_local(view.renderer, close, view.settings, tool);
 }
 
 TEST(VolumeRenderer, PlasticChangesAppearOnceRelaxedAndMatchAFreshUpload) {
