@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -173,6 +174,8 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   std::unique_ptr<RenderFeed> feed;
   RenderTiming render_timing;
   if (options.render_loop) feed = std::make_unique<RenderFeed>();
+  std::exception_ptr render_error;
+  std::atomic<bool> render_finished{false};
   const auto start = Clock::now() + std::chrono::milliseconds(5);
   std::thread force_thread([&] {
     pthread_setname_np(pthread_self(), "hapvox-force");
@@ -265,7 +268,14 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
         }
         pthread_setaffinity_np(pthread_self(), sizeof others, &others);
       }
-      options.render_loop(*feed, render_timing);
+      // A render loop that fails (no EGL on this thread, a full disk) must not take the
+      // process down from its thread: its error is rethrown once every thread is joined.
+      try {
+        options.render_loop(*feed, render_timing);
+      } catch (...) {
+        render_error = std::current_exception();
+      }
+      render_finished.store(true, std::memory_order_release);
     });
   }
 
@@ -345,7 +355,8 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     if (feed != nullptr) {
       // This thread is the voxel queue's producer now; the render thread still drains it.
       feed->voxels.offer(published, *sculpt->mass);
-      while (!feed->voxels.drained_backlog()) {
+      while (!feed->voxels.drained_backlog() &&
+             !render_finished.load(std::memory_order_acquire)) {
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
         feed->voxels.offer({}, *sculpt->mass);
       }
@@ -362,6 +373,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   if (feed != nullptr) {
     feed->done.store(true, std::memory_order_release);
     render_thread.join();
+    if (render_error) std::rethrow_exception(render_error);
     if (timing != nullptr) {
       std::vector<double> frame_us(render_timing.frame_ns.size());
       for (std::size_t i = 0; i < frame_us.size(); ++i) {

@@ -5,6 +5,7 @@
 #include <map>
 #include <thread>
 
+#include "engine/errors.h"
 #include "engine/volume_io.h"
 #include "haptics/realtime.h"
 #include "render/gl_context.h"
@@ -152,6 +153,34 @@ TEST(RenderFeed, RealtimeSculptingWithARenderThreadKeepsTheRenderersCopyExact) {
   const render::Image ours = renderer.render(camera, render::ToolPose{}, settings);
   const render::Image reference = fresh.render(camera, render::ToolPose{}, settings);
   EXPECT_GT(render::psnr_db(ours, reference), 50.0);
+}
+
+}  // namespace
+}  // namespace hapvox::haptics
+
+namespace hapvox::haptics {
+namespace {
+
+TEST(RenderFeed, AFailingRenderLoopIsReportedAfterTheRealtimeRunNotACrash) {
+  const engine::DensityField field = engine::generate_volume("block:dims=32");
+  const engine::ToolForceModel model(field, engine::ToolForceOptions{});
+  TraceMakeOptions make;
+  make.shape = TraceShape::kPress;
+  make.start_mm = Vec3d(16, 16, 22);
+  make.travel_mm = 3.0;
+  const TraceDevice device(resample(make_trace(make), ResampleOptions{}), DeviceTransform{});
+  RealtimeOptions realtime;
+  realtime.render_loop = [](RenderFeed&, RenderTiming&) {
+    throw InputError("frames/frame_0000.png", "cannot be written");
+  };
+  TimingSummary timing;
+  try {
+    replay_realtime(model, device, DeviceLimits{}, nullptr, {}, nullptr, nullptr, &timing,
+                    realtime);
+    ADD_FAILURE() << "the render loop's error was lost";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "frames/frame_0000.png: cannot be written");
+  }
 }
 
 }  // namespace
