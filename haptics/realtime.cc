@@ -259,8 +259,8 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       setpriority(PRIO_PROCESS, 0, 10);
       const long online = sysconf(_SC_NPROCESSORS_ONLN);
       if (options.scheduler.pin_cpu && online > 1) {
-        const int force_cpu = options.scheduler.cpu >= 0 ? options.scheduler.cpu
-                                                         : static_cast<int>(online - 1);
+        const int force_cpu =
+            options.scheduler.cpu >= 0 ? options.scheduler.cpu : static_cast<int>(online - 1);
         cpu_set_t others;
         CPU_ZERO(&others);
         for (int cpu = 0; cpu < online; ++cpu) {
@@ -355,8 +355,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     if (feed != nullptr) {
       // This thread is the voxel queue's producer now; the render thread still drains it.
       feed->voxels.offer(published, *sculpt->mass);
-      while (!feed->voxels.drained_backlog() &&
-             !render_finished.load(std::memory_order_acquire)) {
+      while (!feed->voxels.drained_backlog() && !render_finished.load(std::memory_order_acquire)) {
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
         feed->voxels.offer({}, *sculpt->mass);
       }
@@ -381,10 +380,9 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       }
       timing->render_frame = duration_stats(frame_us);
       if (frame_us.size() > 1) {
-        const double span_s =
-            1e-9 * static_cast<double>(render_timing.frame_start_ns.back() +
-                                       render_timing.frame_ns.back() -
-                                       render_timing.frame_start_ns.front());
+        const double span_s = 1e-9 * static_cast<double>(render_timing.frame_start_ns.back() +
+                                                         render_timing.frame_ns.back() -
+                                                         render_timing.frame_start_ns.front());
         timing->render_fps = span_s > 0.0 ? static_cast<double>(frame_us.size()) / span_s : 0.0;
       }
       timing->render_queue_full = feed->voxels.full_events();

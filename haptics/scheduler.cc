@@ -38,9 +38,10 @@ void prepare_process(const SchedulerOptions& options, SchedulerReport& report) {
   } else if (kSanitizerBuild) {
     report.memory_lock = "off: sanitizer build; pages may fault in the loop";
   } else if (mlockall(options.lock_future_memory ? MCL_CURRENT | MCL_FUTURE : MCL_CURRENT) == 0) {
-    report.memory_lock = options.lock_future_memory
-                             ? "on (mlockall current and future)"
-                             : "on (mlockall current; not future: the render thread maps per frame)";
+    report.memory_lock =
+        options.lock_future_memory
+            ? "on (mlockall current and future)"
+            : "on (mlockall current; not future: the render thread maps per frame)";
   } else {
     report.memory_lock = refused(errno, "pages may fault in the loop (raise ulimit -l)");
   }

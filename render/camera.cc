@@ -12,14 +12,11 @@ constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 Eigen::Vector3d OrbitCamera::eye_mm() const {
   const double el = std::clamp(elevation_deg, -89.0, 89.0) * kDegToRad;
   const double az = azimuth_deg * kDegToRad;
-  return target_mm +
-         distance_mm * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
-                                       std::sin(el));
+  return target_mm + distance_mm * Eigen::Vector3d(std::cos(el) * std::cos(az),
+                                                   std::cos(el) * std::sin(az), std::sin(el));
 }
 
-Eigen::Vector3d OrbitCamera::view_direction() const {
-  return (target_mm - eye_mm()).normalized();
-}
+Eigen::Vector3d OrbitCamera::view_direction() const { return (target_mm - eye_mm()).normalized(); }
 
 Eigen::Matrix4d OrbitCamera::view() const {
   const Eigen::Vector3d eye = eye_mm();

@@ -31,8 +31,8 @@ void push_vertex(SliceMesh& mesh, const Eigen::Vector3d& rest, const Eigen::Vect
 // A grid of quads over breakpoints us x ws of the plane's (u, w) basis around `origin`.
 void push_grid(SliceMesh& mesh, const Eigen::Vector3d& origin, const Eigen::Vector3d& eu,
                const Eigen::Vector3d& ew, const std::vector<double>& us,
-               const std::vector<double>& ws, const ToolPose& tool,
-               const SliceMeshOptions& options, bool displace) {
+               const std::vector<double>& ws, const ToolPose& tool, const SliceMeshOptions& options,
+               bool displace) {
   const auto base = static_cast<std::uint32_t>(mesh.vertices.size());
   for (double w : ws) {
     for (double u : us) {
@@ -174,8 +174,8 @@ void build_slice_mesh(const Eigen::Vector3d& frame_lo, const Eigen::Vector3d& fr
   std::vector<double> us, ws;
   // Farthest from the eye first: n points away from it, so from s_max down.
   const int first = std::max(0, static_cast<int>(std::floor((frame_max - s_max) / spacing)));
-  const int last = std::min(options.slices - 1,
-                            static_cast<int>(std::ceil((frame_max - s_min) / spacing)));
+  const int last =
+      std::min(options.slices - 1, static_cast<int>(std::ceil((frame_max - s_min) / spacing)));
   for (int k = first; k <= last; ++k) {
     const double s = frame_max - (k + 0.5) * spacing;
     const std::vector<Eigen::Vector3d> polygon = slice_polygon(lo, hi, n, s);
@@ -198,7 +198,8 @@ void build_slice_mesh(const Eigen::Vector3d& frame_lo, const Eigen::Vector3d& fr
       continue;
     }
     const double plane_distance = std::abs(n.dot(tool.center_mm) - s);
-    const bool reached = displace && (options.kernel == FfdKernel::kPaper || plane_distance < reach);
+    const bool reached =
+        displace && (options.kernel == FfdKernel::kPaper || plane_distance < reach);
     if (!reached) {
       // The exact polygon as a fan: nothing moves here.
       const auto base = static_cast<std::uint32_t>(mesh.vertices.size());

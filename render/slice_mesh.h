@@ -31,9 +31,9 @@ enum class Tessellation { kUniform, kAdaptive };
 
 /// The elastic state the mesh follows: where the tool is and how far it has pushed.
 struct ToolPose {
-  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();  // x_n
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();        // x_n
   Eigen::Vector3d displacement_mm = Eigen::Vector3d::Zero();  // u = x_n - x_0 (zero: none)
-  double radius_mm = 0.0;  // 0: no tool
+  double radius_mm = 0.0;                                     // 0: no tool
   bool in_contact = false;
 };
 

@@ -44,13 +44,13 @@ TransferFunction::TransferFunction(const std::vector<ControlPoint>& points,
     const ControlPoint& p = points[i];
     for (float v : {p.density, p.r, p.g, p.b, p.a}) {
       if (!std::isfinite(v) || v < 0.0f || v > 1.0f) {
-        throw InputError(source, "control point " + std::to_string(i + 1) +
-                                     ": values must lie in [0, 1]");
+        throw InputError(source,
+                         "control point " + std::to_string(i + 1) + ": values must lie in [0, 1]");
       }
     }
     if (i > 0 && !(p.density > points[i - 1].density)) {
-      throw InputError(source, "control point " + std::to_string(i + 1) +
-                                   ": densities must increase strictly");
+      throw InputError(
+          source, "control point " + std::to_string(i + 1) + ": densities must increase strictly");
     }
   }
   std::size_t k = 0;

@@ -279,10 +279,9 @@ void VolumeRenderer::compute_texels(const Eigen::Vector3i& lo, const Eigen::Vect
     for (int y = lo.y(); y < hi.y(); ++y) {
       for (int x = lo.x(); x < hi.x(); ++x) {
         const float rho = density_[index(x, y, z)];
-        const Eigen::Vector3d gradient(
-            (at(x + 1, y, z) - at(x - 1, y, z)) / (2.0 * voxel_mm_.x()),
-            (at(x, y + 1, z) - at(x, y - 1, z)) / (2.0 * voxel_mm_.y()),
-            (at(x, y, z + 1) - at(x, y, z - 1)) / (2.0 * voxel_mm_.z()));
+        const Eigen::Vector3d gradient((at(x + 1, y, z) - at(x - 1, y, z)) / (2.0 * voxel_mm_.x()),
+                                       (at(x, y + 1, z) - at(x, y - 1, z)) / (2.0 * voxel_mm_.y()),
+                                       (at(x, y, z + 1) - at(x, y, z - 1)) / (2.0 * voxel_mm_.z()));
         const double norm = gradient.norm();
         std::uint8_t* t = &texels_[index(x, y, z) * 4];
         if (norm > 1e-6) {
@@ -312,8 +311,8 @@ void VolumeRenderer::compute_texels(const Eigen::Vector3i& lo, const Eigen::Vect
 }
 
 void VolumeRenderer::set_voxel(const openvdb::Coord& ijk, float density) {
-  if (ijk.x() < 0 || ijk.y() < 0 || ijk.z() < 0 || ijk.x() >= dims_.x() ||
-      ijk.y() >= dims_.y() || ijk.z() >= dims_.z()) {
+  if (ijk.x() < 0 || ijk.y() < 0 || ijk.z() < 0 || ijk.x() >= dims_.x() || ijk.y() >= dims_.y() ||
+      ijk.z() >= dims_.z()) {
     return;  // outside the rendered box
   }
   density_[index(ijk.x(), ijk.y(), ijk.z())] = std::clamp(density, 0.0f, 1.0f);
@@ -479,8 +478,7 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(vbytes), mesh_.vertices.data());
   if (ibytes > g.slice_ibo_bytes) {
     g.slice_ibo_bytes = ibytes;
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibytes), nullptr,
-                 GL_STREAM_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibytes), nullptr, GL_STREAM_DRAW);
   }
   glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ibytes),
                   mesh_.indices.data());

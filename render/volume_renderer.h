@@ -81,9 +81,9 @@ class VolumeRenderer {
   Eigen::Vector3d visible_lo_ = Eigen::Vector3d::Zero(), visible_hi_ = Eigen::Vector3d::Zero();
   bool has_visible_ = false;
   float first_visible_density_ = 0.0f;
-  std::vector<float> density_;          // dims_, x fastest
-  std::vector<std::uint8_t> texels_;    // RGBA8: encoded gradient direction, density
-  std::vector<std::uint8_t> dirty_;     // one flag per 8^3 brick
+  std::vector<float> density_;        // dims_, x fastest
+  std::vector<std::uint8_t> texels_;  // RGBA8: encoded gradient direction, density
+  std::vector<std::uint8_t> dirty_;   // one flag per 8^3 brick
   std::vector<std::uint32_t> dirty_list_;
   Eigen::Vector3i bricks_;
   std::uint64_t bricks_uploaded_total_ = 0;

@@ -25,7 +25,8 @@ TEST(SlicePolygon, CutsTheBoxExactly) {
   for (const auto& p : flat) EXPECT_NEAR(p.z(), 1.5, 1e-12);
   // Through the centre along the diagonal of a cube: a regular hexagon.
   const Vector3d n = Vector3d(1, 1, 1).normalized();
-  const auto hexagon = slice_polygon(Vector3d::Zero(), Vector3d::Ones(), n, n.dot(Vector3d::Constant(0.5)));
+  const auto hexagon =
+      slice_polygon(Vector3d::Zero(), Vector3d::Ones(), n, n.dot(Vector3d::Constant(0.5)));
   ASSERT_EQ(hexagon.size(), 6u);
   EXPECT_NEAR(polygon_area(hexagon), 3.0 * std::sqrt(3.0) / 4.0, 1e-9);
   // Outside the box: nothing.
@@ -39,13 +40,15 @@ TEST(SlicePolygon, SlicesSumToTheBoxVolume) {
     const Vector3d n = d.normalized();
     double s0 = INFINITY, s1 = -INFINITY;
     for (int k = 0; k < 8; ++k) {
-      const Vector3d c((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z());
+      const Vector3d c((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(),
+                       (k & 4) ? hi.z() : lo.z());
       s0 = std::min(s0, n.dot(c)), s1 = std::max(s1, n.dot(c));
     }
     const int slices = 2000;
     const double ds = (s1 - s0) / slices;
     double volume = 0.0;
-    for (int i = 0; i < slices; ++i) volume += polygon_area(slice_polygon(lo, hi, n, s0 + (i + 0.5) * ds)) * ds;
+    for (int i = 0; i < slices; ++i)
+      volume += polygon_area(slice_polygon(lo, hi, n, s0 + (i + 0.5) * ds)) * ds;
     EXPECT_NEAR(volume, 24.0, 24.0 * 1e-4);
   }
 }
@@ -60,8 +63,8 @@ TEST(FfdKernel, WendlandIsOneAtTheToolZeroBeyondItsSupportAndContinuous) {
   double previous = 1.0;
   for (double d = 0.01; d < R; d += 0.01) {
     const double w = ffd_weight(d, options, R);
-    EXPECT_LT(w, previous);                       // strictly falling
-    EXPECT_LT(previous - w, 0.01 * 2.0);          // no step (|w'| <= 20/(9R)... < 2)
+    EXPECT_LT(w, previous);               // strictly falling
+    EXPECT_LT(previous - w, 0.01 * 2.0);  // no step (|w'| <= 20/(9R)... < 2)
     previous = w;
   }
   EXPECT_LT(ffd_weight(R - 1e-6, options, R), 1e-12);  // smooth landing at R
@@ -90,7 +93,8 @@ TEST(FfdDisplace, MovesTheToolsNeighbourhoodByUAndNothingFarAway) {
   const ToolPose tool = pressing_tool();
   SliceMeshOptions options;  // Wendland, R = 3 radii = 6 mm
   // Inside the tool and on its surface: the full displacement.
-  EXPECT_TRUE(ffd_displace(tool.center_mm, tool, options).isApprox(tool.center_mm + tool.displacement_mm));
+  EXPECT_TRUE(
+      ffd_displace(tool.center_mm, tool, options).isApprox(tool.center_mm + tool.displacement_mm));
   const Vector3d on_surface = tool.center_mm + Vector3d(0, 2, 0);
   EXPECT_TRUE(ffd_displace(on_surface, tool, options).isApprox(on_surface + tool.displacement_mm));
   // Beyond radius + support: exactly still.
@@ -119,10 +123,12 @@ TEST(FfdDisplace, WeightGradientIsTheDerivativeOfTheWeight) {
       for (int a = 0; a < 3; ++a) {
         const Vector3d e = Vector3d::Unit(a) * h;
         const double up = (ffd_displace(p + e, tool, options) - (p + e)).dot(tool.displacement_mm);
-        const double down = (ffd_displace(p - e, tool, options) - (p - e)).dot(tool.displacement_mm);
+        const double down =
+            (ffd_displace(p - e, tool, options) - (p - e)).dot(tool.displacement_mm);
         numeric[a] = (up - down) / (2 * h) / tool.displacement_mm.squaredNorm();
       }
-      EXPECT_LT((ffd_weight_gradient(p, tool, options) - numeric).norm(), 1e-5) << offset.transpose();
+      EXPECT_LT((ffd_weight_gradient(p, tool, options) - numeric).norm(), 1e-5)
+          << offset.transpose();
     }
   }
 }
@@ -174,9 +180,11 @@ TEST(SliceMesh, SlicePlanesStayOnTheVolumesLatticeWhateverTheVisibleBox) {
   EXPECT_DOUBLE_EQ(part.slice_spacing_mm, whole.slice_spacing_mm);
   // Every plane of the part is a plane of the whole: depth / spacing is k + 1/2 off the top.
   double top = -INFINITY;
-  for (const SliceVertex& v : whole.vertices) top = std::max(top, view.dot(Vector3d(v.rest[0], v.rest[1], v.rest[2])));
+  for (const SliceVertex& v : whole.vertices)
+    top = std::max(top, view.dot(Vector3d(v.rest[0], v.rest[1], v.rest[2])));
   for (const SliceVertex& v : part.vertices) {
-    const double k = (view.dot(Vector3d(v.rest[0], v.rest[1], v.rest[2])) - top) / part.slice_spacing_mm;
+    const double k =
+        (view.dot(Vector3d(v.rest[0], v.rest[1], v.rest[2])) - top) / part.slice_spacing_mm;
     EXPECT_NEAR(k - std::round(k), 0.0, 0.02);
   }
 }
