@@ -482,7 +482,7 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   }
   glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ibytes),
                   mesh_.indices.data());
-  frame.upload_ms = ms_since(tu) + 0.0;
+  frame.upload_ms = ms_since(tu);
 
   auto td = std::chrono::steady_clock::now();
   glEnable(GL_DEPTH_TEST);

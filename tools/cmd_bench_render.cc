@@ -43,19 +43,14 @@ std::vector<std::string> split_list(const std::string& text) {
   while (std::getline(in, part, ',')) {
     // A generator spec has its own commas: "four-spheres:dims=256" stays whole, and a
     // "key=value" piece belongs to the spec before it.
-    if (!parts.empty() && part.find('=') != std::string::npos && part.find(':') == std::string::npos &&
-        parts.back().find(':') != std::string::npos) {
+    if (!parts.empty() && part.find('=') != std::string::npos &&
+        part.find(':') == std::string::npos && parts.back().find(':') != std::string::npos) {
       parts.back() += "," + part;
     } else {
       parts.push_back(part);
     }
   }
   return parts;
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? NAN : v[v.size() / 2];
 }
 
 void run_bench_render(const BenchRenderFlags& f) {
@@ -85,8 +80,8 @@ void run_bench_render(const BenchRenderFlags& f) {
     const bool generated = path.find(':') != std::string::npos;
     render::VolumeRenderer renderer(
         field, render::TransferFunction::from_spec(generated ? "ct-soft" : "ct-bone"));
-    const render::OrbitCamera camera = render::OrbitCamera::framing(
-        field.world_min_mm(), field.world_max_mm(), 30.0, 25.0);
+    const render::OrbitCamera camera =
+        render::OrbitCamera::framing(field.world_min_mm(), field.world_max_mm(), 30.0, 25.0);
     // The tool 3 mm into the material below the top-centre of the visible box.
     render::ToolPose tool;
     tool.radius_mm = 8.0 * field.voxel_size_mm().minCoeff();
@@ -111,9 +106,8 @@ void run_bench_render(const BenchRenderFlags& f) {
       reference.mesh.slices = 500;
       const render::Image ref = renderer.render(camera, tool, reference);
       for (const auto& [method, settings] :
-           {std::pair<std::string, render::RenderSettings>{"ours: adaptive, " +
-                                                               std::to_string(f.slices) + " slices",
-                                                           ours},
+           {std::pair<std::string, render::RenderSettings>{
+                "ours: adaptive, " + std::to_string(f.slices) + " slices", ours},
             {"naive: 500 x 20x20, Eq. 10", naive}}) {
         std::vector<double> frame_ms, draw_ms;
         render::Image image;
@@ -122,23 +116,22 @@ void run_bench_render(const BenchRenderFlags& f) {
         for (int i = 0; i < f.frames; ++i) {
           const auto t0 = std::chrono::steady_clock::now();
           image = renderer.render(camera, tool, settings, &stats);
-          frame_ms.push_back(std::chrono::duration<double, std::milli>(
-                                 std::chrono::steady_clock::now() - t0)
-                                 .count());
+          frame_ms.push_back(
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                  .count());
           draw_ms.push_back(stats.draw_ms);
         }
         Row row;
         row.volume = spec;
         row.method = method;
         row.size = size;
-        row.frame_ms = median(frame_ms);
+        row.frame_ms = haptics::percentile(frame_ms, 50.0);
         row.fps = 1000.0 / row.frame_ms;
-        row.draw_ms = median(draw_ms);
+        row.draw_ms = haptics::percentile(draw_ms, 50.0);
         row.vertices = stats.vertices;
         row.psnr_db = render::psnr_db(image, ref);
         std::printf("%-40s %5d %-30s %8.2f %9.1f %9.1f %9zu %8.1f\n", row.volume.c_str(), size,
-                    method.c_str(), row.fps, row.frame_ms, row.draw_ms, row.vertices,
-                    row.psnr_db);
+                    method.c_str(), row.fps, row.frame_ms, row.draw_ms, row.vertices, row.psnr_db);
         std::fflush(stdout);
         rows.push_back(row);
       }
@@ -147,8 +140,9 @@ void run_bench_render(const BenchRenderFlags& f) {
       std::printf("%-40s %5d %-30s %7.1fx\n", "", size, "ours / naive", a.fps / b.fps);
     }
   }
-  std::printf("\ngoals (DESIGN.md, CPU-only): >= 30 fps at 256^2, >= 15 fps at 512^2, PSNR >= 35 dB "
-              "against the 500-slice reference; seed: 15 fps on a GPU\n");
+  std::printf(
+      "\ngoals (DESIGN.md, CPU-only): >= 30 fps at 256^2, >= 15 fps at 512^2, PSNR >= 35 dB "
+      "against the 500-slice reference; seed: 15 fps on a GPU\n");
   if (!f.csv.empty()) {
     std::ofstream out(f.csv + ".partial");
     out << "volume,size,method,fps,frame_ms,draw_ms,vertices,psnr_db\n";

@@ -4,7 +4,6 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <memory>
 
 #include "engine/errors.h"
@@ -14,8 +13,6 @@
 
 namespace hapvox::cli {
 namespace {
-
-namespace fs = std::filesystem;
 
 struct RenderCommandFlags {
   std::string volume;
@@ -51,9 +48,6 @@ void run_render(const RenderCommandFlags& f) {
     throw InputError("--turntable", "must lie in [0, 3600] frames");
   }
   if (f.every_ticks < 1) throw InputError("--every-ticks", "must be at least 1");
-  if (fs::exists(f.output) && !fs::is_directory(f.output)) {
-    throw InputError(f.output, "exists and is not a directory");
-  }
   if (f.turntable > 0 && !f.trace_path.empty()) {
     throw InputError("--turntable", "cannot be combined with --trace");
   }
@@ -110,9 +104,9 @@ void run_render(const RenderCommandFlags& f) {
   }
   if (!f.quiet) {
     const render::RenderSettings& s = setup.settings;
-    std::printf("wrote %d frame%s of %dx%d to %s (%.1f ms a frame, %.1f fps)\n",
-                recorder.frames(), recorder.frames() == 1 ? "" : "s", s.width, s.height,
-                f.output.c_str(), recorder.frame_ms_total() / recorder.frames(),
+    std::printf("wrote %d frame%s of %dx%d to %s (%.1f ms a frame, %.1f fps)\n", recorder.frames(),
+                recorder.frames() == 1 ? "" : "s", s.width, s.height, f.output.c_str(),
+                recorder.frame_ms_total() / recorder.frames(),
                 1000.0 * recorder.frames() / recorder.frame_ms_total());
   }
   if (f.video) encode_video(f.output, f.quiet);

@@ -11,6 +11,7 @@
 #include <new>
 
 #include "engine/volume_io.h"
+#include "haptics/clay_scene.h"
 #include "test_data.h"
 
 // Counts allocations per thread, so a test can prove a thread allocated nothing. (GCC
@@ -68,15 +69,7 @@ namespace hapvox::haptics {
 namespace {
 
 TraceDevice clay_device(double rate_hz, double speed_mm_s) {
-  TraceMakeOptions make;
-  make.shape = TraceShape::kStroke;
-  make.start_mm = Vec3d(14.3, 24.4, 32.0);  // block:dims=48 face at z = 23.5
-  make.travel_mm = 9.0;
-  make.speed_mm_s = speed_mm_s;
-  make.stroke_length_mm = 20.0;
-  ResampleOptions resample_options;
-  resample_options.rate_hz = rate_hz;
-  return TraceDevice(resample(make_trace(make), resample_options), DeviceTransform{});
+  return fixtures::clay_stroke_device(rate_hz, speed_mm_s);
 }
 
 struct RealtimeRun {
@@ -88,16 +81,7 @@ struct RealtimeRun {
 
 RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& session_path,
                             RealtimeOptions realtime = {}) {
-  const engine::DensityField field = engine::generate_volume("block:dims=48");
-  DoubleBufferedField buffers(field);
-  engine::ToolForceOptions options;
-  options.tool.diameter_mm = 8.0;
-  options.plastic.enabled = true;
-  options.plastic.yield_stress_pa = 20e3;
-  const engine::ToolForceModel model(buffers.buffer(0), options);
-  engine::MassGrid mass(field);
-  SurfaceChangeChannel channel;
-  RealtimeSculpt sculpt{&mass, &buffers, &channel, 2000, 8};
+  fixtures::ClayScene scene;
   RealtimeRun run;
   std::uint64_t at_start = 0;
   realtime.hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
@@ -105,8 +89,8 @@ RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& sessio
     run.force_thread_allocations = allocations_on_this_thread - at_start;
   };
   SessionWriter session(session_path);
-  run.summary = replay_realtime(model, device, DeviceLimits{}, &session, {}, &sculpt, &run.sculpt,
-                                &run.timing, realtime);
+  run.summary = replay_realtime(scene.model, device, DeviceLimits{}, &session, {}, &scene.sculpt,
+                                &run.sculpt, &run.timing, realtime);
   session.write_array("timing/relax_slice_ns", run.timing.relax_slice_ns, "ns");
   session.close();
   return run;

@@ -7,6 +7,7 @@
 
 #include "engine/errors.h"
 #include "engine/volume_io.h"
+#include "haptics/clay_scene.h"
 #include "haptics/realtime.h"
 #include "render/gl_context.h"
 #include "render/volume_renderer.h"
@@ -77,23 +78,9 @@ TEST(VoxelPatchQueue, OverflowWaitsInTheBacklogAndEveryVoxelArrivesWithItsLatest
 // A realtime sculpting replay with a real render thread: the renderer keeps its own copy
 // of the field from the feed and ends with the sculpted volume.
 TEST(RenderFeed, RealtimeSculptingWithARenderThreadKeepsTheRenderersCopyExact) {
-  const engine::DensityField field = engine::generate_volume("block:dims=48");
-  DoubleBufferedField buffers(field);
-  engine::ToolForceOptions options;
-  options.tool.diameter_mm = 8.0;
-  options.plastic.enabled = true;
-  options.plastic.yield_stress_pa = 20e3;
-  const engine::ToolForceModel model(buffers.buffer(0), options);
-  engine::MassGrid mass(field);
-  SurfaceChangeChannel channel;
-  RealtimeSculpt sculpt{&mass, &buffers, &channel, 2000, 8};
-  TraceMakeOptions make;
-  make.shape = TraceShape::kStroke;
-  make.start_mm = Vec3d(14.3, 24.4, 32.0);
-  make.travel_mm = 9.0;
-  make.speed_mm_s = 20.0;
-  make.stroke_length_mm = 20.0;
-  const TraceDevice device(resample(make_trace(make), ResampleOptions{}), DeviceTransform{});
+  fixtures::ClayScene scene;
+  const engine::DensityField& field = scene.field;
+  const TraceDevice device = fixtures::clay_stroke_device(1000.0, 20.0);
 
   render::GlContext context;
   render::VolumeRenderer renderer(field, render::TransferFunction::from_spec("clay"));
@@ -132,8 +119,8 @@ TEST(RenderFeed, RealtimeSculptingWithARenderThreadKeepsTheRenderersCopyExact) {
   };
   SculptSummary sculpted;
   TimingSummary timing;
-  replay_realtime(model, device, DeviceLimits{}, nullptr, {}, &sculpt, &sculpted, &timing,
-                  realtime);
+  replay_realtime(scene.model, device, DeviceLimits{}, nullptr, {}, &scene.sculpt, &sculpted,
+                  &timing, realtime);
   context.make_current();
   EXPECT_EQ(sculpted.final_mass_units, sculpted.initial_mass_units);
   EXPECT_GT(sculpted.deleted_voxels, 0u);
@@ -148,7 +135,7 @@ TEST(RenderFeed, RealtimeSculptingWithARenderThreadKeepsTheRenderersCopyExact) {
   }
   EXPECT_GT(timing.render.voxels_applied, 0u);
   // The renderer's copy is the sculpted volume: it draws what a fresh upload draws.
-  const engine::DensityField final_field = mass.to_density_field();
+  const engine::DensityField final_field = scene.mass.to_density_field();
   render::VolumeRenderer fresh(final_field, render::TransferFunction::from_spec("clay"));
   const render::Image ours = renderer.render(camera, render::ToolPose{}, settings);
   const render::Image reference = fresh.render(camera, render::ToolPose{}, settings);
