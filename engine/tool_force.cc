@@ -26,6 +26,20 @@ int fibonacci_sample_count(double radius_mm, double spacing_mm, int min_count, i
 
 }  // namespace
 
+const char* contact_law_name(ContactLaw law) {
+  switch (law) {
+    case ContactLaw::kHertz:
+      return "hertz";
+    case ContactLaw::kPaper:
+      return "paper";
+  }
+  return "?";
+}
+
+double ContactIntegral::contact_radius_mm() const {
+  return std::sqrt(std::max(0.0, contact_area_mm2) / (2.0 * kPi));
+}
+
 ToolForceState::ToolForceState(const DensityField& field)
     : accessors{field.grid().getConstAccessor(), field.grid().getConstAccessor()} {}
 
@@ -43,6 +57,16 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
   }
   if (!std::isfinite(options.reference_length_mm) || options.reference_length_mm < 0.0) {
     throw InputError("material", "reference length must be positive (or 0 for the tool radius)");
+  }
+  if (options.contact_law == ContactLaw::kHertz && options.reference_length_mm != 0.0) {
+    throw InputError("material",
+                     "a reference length needs the paper's contact law (the Hertz law measures "
+                     "it from the contact)");
+  }
+  if (!(options.surface_density > 0.0 && options.surface_density <= 1.0)) {
+    std::ostringstream out;
+    out << "surface density must lie in (0, 1], got " << options.surface_density;
+    throw InputError("material", out.str());
   }
   if (!(options.sample_spacing_voxels > 0.0) || options.min_surface_samples < 1 ||
       options.max_surface_samples < options.min_surface_samples) {
@@ -65,8 +89,13 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
     }
   }
   const double radius_mm = 0.5 * d;
-  reference_length_mm_ =
-      options.reference_length_mm > 0.0 ? options.reference_length_mm : radius_mm;
+  fixed_reference_length_mm_ =
+      options.contact_law == ContactLaw::kPaper
+          ? (options.reference_length_mm > 0.0 ? options.reference_length_mm : radius_mm)
+          : 0.0;
+  const double nu = options.material.poisson_ratio;
+  hertz_length_factor_ = 0.75 * (1.0 - nu * nu);
+  surface_density_ = static_cast<float>(options.surface_density);
   const Vec3d voxel = field.voxel_size_mm();
   tool_radius_index_ = Vec3d::Constant(radius_mm).cwiseQuotient(voxel);
 
@@ -182,18 +211,21 @@ ContactIntegral ToolForceModel::integrate_contact(const Vec3d& center_mm, ToolFo
   Eigen::Vector3d sum_normal = Vec3d::Zero();
   double sum_density = 0.0;
   int in_contact = 0;
+  float max_density = 0.0f;
   const std::size_t n = sample_offsets_index_.size();
   for (std::size_t k = 0; k < n; ++k) {
     const float rho = sample_density(c + sample_offsets_index_[k], s);
     if (rho > 0.0f) {
       sum_normal += (rho * sample_normals_[k]).cast<double>();
       sum_density += rho;
+      max_density = std::max(max_density, rho);
       ++in_contact;
     }
   }
   result.area_vector_mm2 = sum_normal * sample_area_mm2_;
   result.contact_area_mm2 = sum_density * sample_area_mm2_;
   result.samples_in_contact = in_contact;
+  result.max_density = max_density;
   return result;
 }
 
@@ -202,7 +234,7 @@ bool ToolForceModel::touches(const Vec3d& center_mm, ToolForceState& s) const {
   if (!may_touch(center_index)) return false;
   const Eigen::Vector3f c = center_index.cast<float>();
   for (const auto& offset : sample_offsets_index_) {
-    if (sample_density(c + offset, s) > 0.0f) return true;
+    if (sample_density(c + offset, s) >= surface_density_) return true;
   }
   return false;
 }
@@ -238,14 +270,27 @@ Vec3d ToolForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origi
   return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping
 }
 
-Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u) const {
+double ToolForceModel::reference_length_mm(const ContactIntegral& contact) const {
+  if (options_.contact_law == ContactLaw::kPaper) return fixed_reference_length_mm_;
+  // Hertz: a normal press gives F = E (|u| / L) |N|; Hertz wants 4/3 E* a |u| with the
+  // contact radius a. So L = 3/4 (E / E*) |N| / a = 3/4 (1 - nu^2) |N| / a.
+  const double a_mm = contact.contact_radius_mm();
+  if (!(a_mm > 0.0)) return 0.0;
+  return hertz_length_factor_ * contact.area_vector_mm2.norm() / a_mm;
+}
+
+Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u, double reference_length_mm) const {
   const double length = u.norm();
-  if (!(length > 0.0)) return Eigen::Matrix3d::Zero();
+  if (!(length > 0.0) || !(reference_length_mm > 0.0)) return Eigen::Matrix3d::Zero();
   const Vec3d dir = u / length;
-  // eps = -(|u|/L) d d^T, tr(eps) = -|u|/L.
-  const double strain = -length / reference_length_mm_;
-  return lame_.lambda_pa * strain * Eigen::Matrix3d::Identity() +
-         2.0 * lame_.mu_pa * strain * (dir * dir.transpose());
+  const Eigen::Matrix3d along = dir * dir.transpose();
+  // Compression |u| / L along the push; the Hertz law lets the material expand laterally
+  // by nu (a free surface, not a confined column), the paper's strain does not.
+  const double strain = -length / reference_length_mm;
+  const double lateral =
+      options_.contact_law == ContactLaw::kHertz ? options_.material.poisson_ratio : 0.0;
+  const Eigen::Matrix3d eps = strain * (along - lateral * (Eigen::Matrix3d::Identity() - along));
+  return lame_.lambda_pa * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * lame_.mu_pa * eps;
 }
 
 Vec3d ToolForceModel::traction_force_n(const Eigen::Matrix3d& stress,
@@ -257,28 +302,40 @@ Vec3d ToolForceModel::traction_force_n(const Eigen::Matrix3d& stress,
 
 void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) const {
   s.surface_change_emitted = false;
+  const double e = options_.material.youngs_modulus_pa;
+  const double length_mm = s.reference_length_mm;
+  const double n_length = s.contact.area_vector_mm2.norm();
+  const Vec3d inward = n_length > 0.0 ? Vec3d(s.contact.area_vector_mm2 / n_length) : Vec3d::Zero();
+  // s = E |u| / L while u pushes into the material; a tool beyond x0 (u . n <= 0) is
+  // separated from the surface and carries no stress.
+  auto stress_measure = [&](const Vec3d& u) {
+    if (!(length_mm > 0.0) || !(u.dot(inward) > 0.0)) return 0.0;
+    return e * u.norm() / length_mm;
+  };
+  auto strain_of = [&](double stress_pa) { return stress_pa / e; };
   if (!options_.plastic.enabled) {
     s.zone = PlasticZone::kElastic;
-    s.stress_measure_pa = options_.material.youngs_modulus_pa *
-                          (x_mm - s.contact_origin_mm).norm() / reference_length_mm_;
-    s.strain = (x_mm - s.contact_origin_mm).norm() / reference_length_mm_;
+    s.stress_measure_pa = stress_measure(x_mm - s.contact_origin_mm);
+    s.strain = strain_of(s.stress_measure_pa);
     return;
   }
-  const double e = options_.material.youngs_modulus_pa;
   const double e_ep = options_.plastic.elastoplastic_modulus_pa;
   // Hardening modulus H of the plastic strain that gives the tangent slope E_ep.
   const double hardening = e * e_ep / (e - e_ep);
   const Vec3d u = x_mm - s.contact_origin_mm;
   const double u_length = u.norm();
-  const double trial_stress = e * u_length / reference_length_mm_;
+  const double trial_stress = stress_measure(u);
   const double previous_stress = s.stress_measure_pa;
-  if (trial_stress > s.yield_stress_pa && u_length > 0.0) {
+  // Plastic flow loads the material: the tool must be moving into it this tick. Moving
+  // out (or holding still) is elastic unloading, whatever the stress (Prados 2011b, 3).
+  const bool moving_in = (x_mm - s.last_position_mm).dot(inward) > 0.0;
+  if (trial_stress > s.yield_stress_pa && u_length > 0.0 && moving_in) {
     const Vec3d dir = u / u_length;
     const double plastic_strain = (trial_stress - s.yield_stress_pa) / (e + hardening);
     s.yield_stress_pa += hardening * plastic_strain;
     s.plastic_strain += plastic_strain;
     // The surface moves permanently: x0 follows the push by the plastic displacement.
-    s.contact_origin_mm += dir * (plastic_strain * reference_length_mm_);
+    s.contact_origin_mm += dir * (plastic_strain * length_mm);
     s.zone = PlasticZone::kPlasticLoad;
     s.surface_change_emitted = true;
     s.surface_change.from_mm = s.contact_origin_mm;
@@ -292,20 +349,23 @@ void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) cons
   } else if (s.plastic_strain == 0.0) {
     s.zone = PlasticZone::kElastic;
   }
-  const double elastic_length = (x_mm - s.contact_origin_mm).norm();
-  s.stress_measure_pa = e * elastic_length / reference_length_mm_;
-  s.strain = elastic_length / reference_length_mm_ + s.plastic_strain;
+  s.stress_measure_pa = stress_measure(x_mm - s.contact_origin_mm);
+  s.strain = strain_of(s.stress_measure_pa) + s.plastic_strain;
 }
 
 void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
   ++s.steps;
   s.surface_change_emitted = false;
   s.contact = integrate_contact(x_mm, s);
-  const bool contact = s.contact.samples_in_contact > 0;
+  // Contact starts at the material's nominal surface, not at the first trace of density
+  // (half a voxel early): the indentation is then independent of the voxel size.
+  const bool contact = s.contact.max_density >= surface_density_;
   if (!contact) {
     s.in_contact = false;
     s.contact_origin_mm = x_mm;
     s.displacement_mm.setZero();
+    s.indentation_mm = 0.0;
+    s.reference_length_mm = 0.0;
     s.stress_pa.setZero();
     s.force_n.setZero();
     s.zone = PlasticZone::kNoContact;
@@ -323,15 +383,28 @@ void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
         s.contact_origin_mm = refine_contact_origin(s.last_position_mm, x_mm, s);
       } else {
         s.contact_origin_mm = x_mm;  // no free position seen yet: start unstrained
+        s.last_position_mm = x_mm;
         ++s.started_in_contact;
       }
     }
     s.in_contact = true;
+    s.reference_length_mm = reference_length_mm(s.contact);
     s.contact_origin_mm = slide_contact_origin(x_mm, s.contact_origin_mm, s.contact);
     apply_plasticity(x_mm, s);
     s.displacement_mm = x_mm - s.contact_origin_mm;
-    s.stress_pa = stress_pa(s.displacement_mm);
-    s.force_n = traction_force_n(s.stress_pa, s.contact);
+    const double n_length = s.contact.area_vector_mm2.norm();
+    s.indentation_mm =
+        n_length > 0.0 ? s.displacement_mm.dot(s.contact.area_vector_mm2) / n_length : 0.0;
+    // Contact only pushes: a tool beyond x0 (u . n <= 0) is off the surface.
+    if (s.indentation_mm > 0.0) {
+      s.stress_pa = stress_pa(s.displacement_mm, s.reference_length_mm);
+      s.force_n = traction_force_n(s.stress_pa, s.contact);
+    } else {
+      // Off the surface: no elastic deformation to show either (the FFD reads u).
+      s.displacement_mm.setZero();
+      s.stress_pa.setZero();
+      s.force_n.setZero();
+    }
     if (!s.force_n.allFinite()) {
       ++s.nonfinite_forces;
       s.force_n.setZero();

@@ -134,6 +134,25 @@ haptics::DeviceTransform TransformFlags::resolve(const haptics::Trace& trace,
   return transform;
 }
 
+engine::ToolForceOptions ForceFlags::resolve() const {
+  engine::ToolForceOptions options = this->options;
+  options.contact_law =
+      contact_law == "paper" ? engine::ContactLaw::kPaper : engine::ContactLaw::kHertz;
+  const double reference = options.reference_length_mm;
+  if (!std::isfinite(reference) || reference < 0.0) {
+    throw InputError("--reference-length-mm", "must be positive, or 0 for the tool radius");
+  }
+  if (reference > 0.0 && options.contact_law != engine::ContactLaw::kPaper) {
+    throw InputError("--reference-length-mm",
+                     "needs --contact-law paper (the Hertz law measures L from the contact)");
+  }
+  const double surface = options.surface_density;
+  if (!(surface > 0.0 && surface <= 1.0)) {
+    throw InputError("--surface-density", "must lie in (0, 1]");
+  }
+  return options;
+}
+
 void ForceFlags::add_to(CLI::App& app) {
   app.add_option("--youngs-modulus-pa,-E", options.material.youngs_modulus_pa,
                  "Young's modulus E of the material, Pa")
@@ -142,9 +161,22 @@ void ForceFlags::add_to(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--tool-diameter-mm", options.tool.diameter_mm, "Spherical tool diameter, mm")
       ->capture_default_str();
-  app.add_option("--reference-length-mm", options.reference_length_mm,
-                 "Reference length L of the strain |u|/L (0: the tool radius)")
+  app.add_option("--contact-law", contact_law,
+                 "hertz: L from the contact, Hertz at small indentation; paper: the seed's "
+                 "fixed L (docs/physics.md)")
+      ->check(CLI::IsMember({"hertz", "paper"}))
       ->capture_default_str();
+  app.add_option("--reference-length-mm", options.reference_length_mm,
+                 "Paper law: reference length L of the strain |u|/L (0: the tool radius)")
+      ->capture_default_str();
+  app.add_option_function<double>(
+      "--surface-density",
+      [this](double value) {
+        options.surface_density = value;
+        surface_density_given = true;
+      },
+      "Density of the material's nominal surface, where contact starts, in (0, 1] "
+      "(default 0.5; half the normal density when sculpting)");
   app.add_option("--slip-ratio", options.slip_ratio,
                  "Contact origin slides once tangential/normal displacement exceeds this "
                  "(inf: the paper's fixed x0)")

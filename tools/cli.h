@@ -50,10 +50,16 @@ struct TransformFlags {
                                    const engine::DensityField& field) const;
 };
 
-/// --youngs-modulus-pa, --poisson, --tool-diameter-mm, --reference-length-mm.
+/// --youngs-modulus-pa, --poisson, --tool-diameter-mm, --contact-law,
+/// --reference-length-mm, --surface-density.
 struct ForceFlags {
   engine::ToolForceOptions options;
+  std::string contact_law = "hertz";
+  bool surface_density_given = false;  // set by the parser when --surface-density is given
   void add_to(CLI::App& app);
+  /// The options with the contact law set, after checking the law's flags (throws
+  /// InputError).
+  engine::ToolForceOptions resolve() const;
 };
 
 /// The command line as typed, recorded in session files.
@@ -70,8 +76,14 @@ class TimingBudgetBroken : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+/// `hapvox validate` found the physics off its closed form (exit code 3).
+class ValidationFailed : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 void add_info_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
+void add_validate_command(CLI::App& app);  // tools/cmd_validate.cc
 void add_trace_command(CLI::App& app);
 
 /// Fails with InputError(flag, "directory ... does not exist") when OUTPUT's folder is missing.

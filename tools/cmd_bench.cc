@@ -187,8 +187,8 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
         for (auto _ : st) {
           const Eigen::Vector3d p = press + Eigen::Vector3d(0.01 * (i & 15), 0, -0.001 * (i & 7));
           const engine::ContactIntegral c = model.integrate_contact_naive(p, state);
-          const Eigen::Vector3d force =
-              engine::ToolForceModel::traction_force_n(model.stress_pa(p - x0), c);
+          const Eigen::Vector3d force = engine::ToolForceModel::traction_force_n(
+              model.stress_pa(p - x0, model.reference_length_mm(c)), c);
           benchmark::DoNotOptimize(force);
           ++i;
         }

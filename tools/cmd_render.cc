@@ -64,7 +64,7 @@ void run_render(const RenderCommandFlags& f) {
     device = std::make_unique<haptics::TraceDevice>(haptics::resample(trace, resample_options),
                                                     f.transform.resolve(trace, field));
   }
-  engine::ToolForceOptions force_options = f.force.options;
+  engine::ToolForceOptions force_options = f.force.resolve();
   force_options.plastic.enabled = f.plastic;
   const engine::ToolForceModel model(field, force_options);
 

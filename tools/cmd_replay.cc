@@ -97,10 +97,6 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (!std::isfinite(diameter) || diameter <= 0.0) {
     throw InputError("--tool-diameter-mm", "must be positive");
   }
-  const double reference = f.force.options.reference_length_mm;
-  if (!std::isfinite(reference) || reference < 0.0) {
-    throw InputError("--reference-length-mm", "must be positive, or 0 for the tool radius");
-  }
   const haptics::TraceColumns columns = f.trace.columns();
   const engine::IntensityMapping mapping = f.mapping.resolve();
   if (!std::isfinite(f.limits.max_force_n) || f.limits.max_force_n <= 0.0) {
@@ -140,8 +136,10 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       throw InputError("--elastoplastic-modulus-pa", "must lie in [0, E)");
     }
   }
-  engine::ToolForceOptions force_options = f.force.options;
+  engine::ToolForceOptions force_options = f.force.resolve();
   force_options.plastic.enabled = f.plastic;
+  // Sculpted clay settles to its normal density: its nominal surface is at half of that.
+  if (!f.force.surface_density_given) force_options.surface_density = 0.5 * f.normal_density;
 
   const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
   engine::DensityField field = engine::load_volume(f.volume, mapping);
@@ -164,8 +162,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     if (f.render_every_ticks < 1) throw InputError("--render-every-ticks", "must be at least 1");
     const RenderSetup setup = resolve_render_flags(f.render, f.volume, field, "render-");
     recorder = std::make_unique<FrameRecorder>(field, setup, f.render_dir,
-                                               0.5 * model.options().tool.diameter_mm,
-                                               f.realtime);
+                                               0.5 * model.options().tool.diameter_mm, f.realtime);
   }
   haptics::SessionWriter session(f.output);
   session.set_attribute("command_line", command_line);
@@ -182,7 +179,10 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   session.set_attribute("lame_lambda_pa", model.lame().lambda_pa);
   session.set_attribute("lame_mu_pa", model.lame().mu_pa);
   session.set_attribute("tool_diameter_mm", model.options().tool.diameter_mm);
-  session.set_attribute("reference_length_mm", model.reference_length_mm());
+  session.set_attribute("contact_law",
+                        std::string(engine::contact_law_name(model.options().contact_law)));
+  session.set_attribute("reference_length_mm", model.fixed_reference_length_mm());
+  session.set_attribute("surface_density", model.options().surface_density);
   session.set_attribute("slip_ratio", model.options().slip_ratio);
   session.set_attribute("surface_samples", std::int64_t{model.surface_sample_count()});
   session.set_attribute("loop_rate_hz", device.rate_hz());
@@ -394,11 +394,12 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   }
   if (recorder) {
     if (f.realtime) {
-      std::printf("  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
-                  "p99 %.1f ms, max %.1f ms\n",
-                  recorder->frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
-                  1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
-                  1e-3 * timing.render_frame.max_us);
+      std::printf(
+          "  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
+          "p99 %.1f ms, max %.1f ms\n",
+          recorder->frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
+          1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
+          1e-3 * timing.render_frame.max_us);
     } else {
       std::printf("  render           %d frames to %s, every %zu ticks, %.1f ms a frame\n",
                   recorder->frames(), f.render_dir.c_str(), f.render_every_ticks,
@@ -433,14 +434,16 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
                   "realtime, every --render-every-ticks in lockstep)");
   cmd->add_option("--render-fps", flags->render_fps, "Realtime: the render thread's target rate")
       ->capture_default_str();
-  cmd->add_option("--render-every-ticks", flags->render_every_ticks, "Lockstep: a frame every N ticks")
+  cmd->add_option("--render-every-ticks", flags->render_every_ticks,
+                  "Lockstep: a frame every N ticks")
       ->capture_default_str();
   flags->render.size = "256";  // frames beside a force loop: small by default
   flags->render.add_to(*cmd, "render-");
   cmd->add_flag("--plastic", flags->plastic,
                 "Sculpt: incremental plasticity, deletion and progressive relaxation");
   cmd->add_option("--yield-stress-pa", flags->force.options.plastic.yield_stress_pa,
-                  "Yield stress sigma_f, Pa")
+                  "Yield stress sigma_f, Pa: the stress along the push (the mean contact "
+                  "pressure under the Hertz law) at which the clay flows")
       ->capture_default_str();
   cmd->add_option("--elastoplastic-modulus-pa",
                   flags->force.options.plastic.elastoplastic_modulus_pa,

@@ -14,7 +14,7 @@
 #include "tools/cli.h"
 
 namespace hapvox::cli {
-void add_render_command(CLI::App& app);         // tools/cmd_render.cc
+void add_render_command(CLI::App& app);          // tools/cmd_render.cc
 void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
 }  // namespace hapvox::cli
 
@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_bench_render_command(*app.get_subcommand("bench"));
   hapvox::cli::add_trace_command(app);
   hapvox::cli::add_render_command(app);
+  hapvox::cli::add_validate_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -58,6 +59,9 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const hapvox::cli::TimingBudgetBroken& e) {
     std::fprintf(stderr, "hapvox: check-timing: %s\n", e.what());
+    return 3;
+  } catch (const hapvox::cli::ValidationFailed& e) {
+    std::fprintf(stderr, "hapvox: validate: %s\n", e.what());
     return 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hapvox: internal error: %s\n", e.what());

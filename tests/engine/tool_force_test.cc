@@ -37,6 +37,7 @@ DensityField make_ball(int n, double voxel_mm, const Vec3d& c_mm, double r_mm) {
 
 ToolForceOptions options_for(double diameter_mm, double e_pa = 200e3, double nu = 0.3) {
   ToolForceOptions o;
+  o.contact_law = ContactLaw::kPaper;  // this file: the seed's law, L = R (closed forms)
   o.tool.diameter_mm = diameter_mm;
   o.material.youngs_modulus_pa = e_pa;
   o.material.poisson_ratio = nu;
@@ -44,11 +45,12 @@ ToolForceOptions options_for(double diameter_mm, double e_pa = 200e3, double nu 
 }
 
 // docs/physics.md, "Sphere on a flat block": force for a tool whose lowest point is
-// depth_mm below the block's face, with trilinear sampling of voxel size h.
+// depth_mm below the block's face (its nominal surface, where contact starts), with
+// trilinear sampling of voxel size h.
 double closed_form_block_force_n(const ToolForceModel& model, double depth_mm, double h_mm) {
   const double r = model.tool_radius_mm();
   const double area = kPi * (2.0 * r * depth_mm - depth_mm * depth_mm - h_mm * h_mm / 12.0);
-  const double strain = (depth_mm + 0.5 * h_mm) / model.reference_length_mm();
+  const double strain = depth_mm / model.fixed_reference_length_mm();
   return (model.lame().lambda_pa + 2.0 * model.lame().mu_pa) * strain * area * 1e-6;
 }
 
@@ -57,8 +59,10 @@ TEST(ToolForce, ZeroOutOfContact) {
   const ToolForceModel model(field, options_for(8.0));
   ToolForceState state = model.make_state();
   const double face_z = 23.5 * 0.5;
-  for (double gap : {5.0, 1.0, 0.3, 0.01}) {
-    model.step(Vec3d(12.1, 11.7, face_z + 4.0 + 0.25 + gap), state);  // 0.25: ramp half-width
+  // Gaps below 0.25 mm (half a voxel) put the tool in the density ramp above the face:
+  // some density, but not yet the nominal surface.
+  for (double gap : {5.0, 1.0, 0.3, 0.2, 0.1, 0.01}) {
+    model.step(Vec3d(12.1, 11.7, face_z + 4.0 + gap), state);
     EXPECT_FALSE(state.in_contact) << gap;
     EXPECT_EQ(state.force_n, Vec3d::Zero()) << gap;
   }
@@ -101,9 +105,11 @@ TEST(ToolForce, LinearInDisplacementAtFixedContact) {
   const ContactIntegral contact = model.integrate_contact(p, state);
   ASSERT_GT(contact.samples_in_contact, 0);
   const Vec3d u(0.1, -0.05, -0.4);
-  const Vec3d f1 = ToolForceModel::traction_force_n(model.stress_pa(u), contact);
+  const double length = model.reference_length_mm(contact);
+  ASSERT_EQ(length, 4.0);  // the paper's L = R
+  const Vec3d f1 = ToolForceModel::traction_force_n(model.stress_pa(u, length), contact);
   for (double scale : {0.25, 0.5, 2.0, 3.0, 10.0}) {
-    const Vec3d fs = ToolForceModel::traction_force_n(model.stress_pa(scale * u), contact);
+    const Vec3d fs = ToolForceModel::traction_force_n(model.stress_pa(scale * u, length), contact);
     EXPECT_LT((fs - scale * f1).norm(), 1e-12 * fs.norm()) << scale;
   }
 }
@@ -222,7 +228,7 @@ PathRecord press_release_press(double e_ep_pa) {
   options.plastic.elastoplastic_modulus_pa = e_ep_pa;
   const ToolForceModel model(field, options);
   ToolForceState state = model.make_state();
-  const double top = 23.5 * 0.5 + 4.0 + 0.25;  // tool centre at first contact
+  const double top = 23.5 * 0.5 + 4.0;  // tool centre at first contact (the nominal surface)
   std::vector<double> path;
   for (double z = top + 1.0; z > top - 2.0; z -= 0.002) path.push_back(z);
   for (double z = top - 2.0; z < top - 1.4; z += 0.002) path.push_back(z);
@@ -276,7 +282,7 @@ TEST(ToolForce, PlasticPathShowsTheThreeSlopesAndTheYield) {
     // Plastic ticks asked for surface changes; the surface moved down for good.
     EXPECT_GE(r.surface_changes, static_cast<int>(r.load.size()));
     EXPECT_GT(r.surface_changes, 100);
-    EXPECT_LT(r.origin_after_unload.z(), 23.5 * 0.5 + 4.0 + 0.25 - 0.5);
+    EXPECT_LT(r.origin_after_unload.z(), 23.5 * 0.5 + 4.0 - 0.5);
   }
 }
 
