@@ -9,13 +9,6 @@
 namespace hapvox::engine {
 namespace {
 
-double distance_to_segment(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
-  const Vec3d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (p - (a + t * ab)).norm();
-}
-
 // The z-interval (mm) where the vertical line through (x, y) lies within `radius` of the
 // segment ab: the hull of its intersections with the two end spheres and the cylinder
 // (the capsule is convex, so the union of the three is one interval). False if empty.
@@ -135,11 +128,24 @@ void MassGrid::activate_if_over(const openvdb::Coord& ijk, std::int32_t units) {
   if (units > threshold_units_) queue_.push(Entry{units, ijk});
 }
 
+double MassGrid::tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm,
+                               double radius_mm) const {
+  const Vec3d ab = b_mm - a_mm;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0.0 ? std::clamp((p_mm - a_mm).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  const Vec3d r = p_mm - (a_mm + t * ab);
+  const double dist = r.norm();
+  // The voxel's extent across the tool's surface: the width of the box h along r.
+  const double width =
+      dist > 0.0 ? r.cwiseAbs().dot(voxel_size_mm_) / dist : voxel_size_mm_.maxCoeff();
+  return std::clamp((radius_mm - dist) / width + 0.5, 0.0, 1.0);
+}
+
 bool MassGrid::inside_tool(const openvdb::Coord& ijk) const {
   if (!has_tool_) return false;
   const Vec3d p = Vec3d(ijk.x(), ijk.y(), ijk.z()).cwiseProduct(voxel_size_mm_);
-  return distance_to_segment(p, tool_from_index_.cwiseProduct(voxel_size_mm_),
-                             tool_to_index_.cwiseProduct(voxel_size_mm_)) < tool_radius_mm_;
+  return tool_coverage(p, tool_from_index_.cwiseProduct(voxel_size_mm_),
+                       tool_to_index_.cwiseProduct(voxel_size_mm_), tool_radius_mm_) > 0.0;
 }
 
 std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
@@ -156,8 +162,11 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
   const Vec3d b = change.position_mm - origin_mm_;
   const Vec3d dir = change.direction.normalized();
   const double step_mm = 0.5 * voxel_size_mm_.minCoeff();
-  const Vec3d lo = (a.cwiseMin(b) - Vec3d::Constant(radius)).cwiseQuotient(voxel_size_mm_);
-  const Vec3d hi = (a.cwiseMax(b) + Vec3d::Constant(radius)).cwiseQuotient(voxel_size_mm_);
+  // Voxels the tool's surface crosses are covered in part: the sweep reaches half a
+  // voxel diagonal beyond the radius.
+  const double reach = radius + 0.5 * voxel_size_mm_.norm();
+  const Vec3d lo = (a.cwiseMin(b) - Vec3d::Constant(reach)).cwiseQuotient(voxel_size_mm_);
+  const Vec3d hi = (a.cwiseMax(b) + Vec3d::Constant(reach)).cwiseQuotient(voxel_size_mm_);
   std::size_t emptied = 0;
   for (int i = static_cast<int>(std::floor(lo.x())); i <= static_cast<int>(std::ceil(hi.x()));
        ++i) {
@@ -166,7 +175,7 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
       // Only the voxels on this column's span through the sweep (one voxel of slack; the
       // exact test below decides).
       double z_lo_mm, z_hi_mm;
-      if (!capsule_z_span(i * voxel_size_mm_.x(), j * voxel_size_mm_.y(), a, b, radius, z_lo_mm,
+      if (!capsule_z_span(i * voxel_size_mm_.x(), j * voxel_size_mm_.y(), a, b, reach, z_lo_mm,
                           z_hi_mm)) {
         continue;
       }
@@ -177,11 +186,17 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
       for (int k = k_lo; k <= k_hi; ++k) {
         const openvdb::Coord source(i, j, k);
         const Vec3d p = Vec3d(i, j, k).cwiseProduct(voxel_size_mm_);
-        if (distance_to_segment(p, a, b) >= radius) continue;
+        // Partial volume: the voxel keeps what fits in the part the tool does not cover,
+        // so the surface follows the sphere within a voxel and a stroke feels smooth.
+        const double covered = tool_coverage(p, a, b, radius);
+        if (covered <= 0.0) continue;
         const std::int32_t units = accessor_.getValue(source);
         if (units <= 0) continue;
-        // March along the push until the voxel centre leaves the swept sphere; for a
-        // sphere, start a voxel short of where the ray leaves it.
+        const auto room = static_cast<std::int32_t>(std::floor(normal_units_ * (1.0 - covered)));
+        if (units <= room) continue;
+        const std::int32_t removed = units - room;
+        // March along the push until the voxel centre leaves the swept sphere and its
+        // covered rim; for a sphere, start a voxel short of where the ray leaves it.
         Vec3d q = p;
         if (a == b) {
           const double along = (p - a).dot(dir);
@@ -197,17 +212,17 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
           target = to_coord(q.cwiseQuotient(voxel_size_mm_));
           const Vec3d centre =
               Vec3d(target.x(), target.y(), target.z()).cwiseProduct(voxel_size_mm_);
-          if (distance_to_segment(centre, a, b) >= radius) break;
+          if (tool_coverage(centre, a, b, radius) <= 0.0) break;
         }
-        const std::int64_t target_sum = std::int64_t{accessor_.getValue(target)} + units;
+        const std::int64_t target_sum = std::int64_t{accessor_.getValue(target)} + removed;
         HAPVOX_CHECK_LE(target_sum, std::int64_t{INT32_MAX});
         const auto target_units = static_cast<std::int32_t>(target_sum);
-        set(source, 0);
+        set(source, room);
         set(target, target_units);
         carved_accessor_.setValueOn(source);
         carved_accessor_.setValueOff(target);
         activate_if_over(target, target_units);
-        work_.moved_units += static_cast<std::uint64_t>(units);
+        work_.moved_units += static_cast<std::uint64_t>(removed);
         ++emptied;
       }
     }

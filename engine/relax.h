@@ -9,8 +9,10 @@
 // sequence of deletions and relaxation steps.
 //
 //   1. apply_deletion(c): the tool's sphere at c (swept from c.from_mm for coalesced
-//      changes) is emptied; each voxel's mass moves along c.direction to the first voxel
-//      outside the sphere. Highest priority: the caller applies all queued deletions first.
+//      changes) is emptied in partial volume: a voxel the sphere covers by a fraction f
+//      keeps at most (1 - f) of the normal density, and what it loses moves along
+//      c.direction to the first voxel the sphere does not cover. Highest priority: the
+//      caller applies all queued deletions first.
 //   2. relax(budget): take the active voxel of highest density; compute the mean of its
 //      3x3x3 neighbourhood; set it back to the normal density; give the excess to the
 //      neighbours below the mean, raising them at most to the mean (shares proportional to
@@ -75,7 +77,7 @@ struct RelaxOptions {
 };
 
 struct RelaxWork {
-  std::uint64_t deleted_voxels = 0;  // voxels emptied by deletions
+  std::uint64_t deleted_voxels = 0;  // voxels deletions took mass from (in part or whole)
   std::uint64_t relaxed_voxels = 0;  // active voxels processed
   std::uint64_t moved_units = 0;     // mass moved, fixed-point units
   std::uint64_t flow_visits = 0;     // voxels the flow-to-room search visited
@@ -147,6 +149,11 @@ class MassGrid {
 
   void set(const openvdb::Coord& ijk, std::int32_t units);
   void activate_if_over(const openvdb::Coord& ijk, std::int32_t units);
+  /// Fraction of a voxel centred at p the swept sphere covers (a linear ramp across the
+  /// voxel's width along the distance direction); all in mm from the grid origin.
+  double tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm,
+                       double radius_mm) const;
+  /// Any part of the voxel under the tool's last swept sphere.
   bool inside_tool(const openvdb::Coord& ijk) const;
   void relax_voxel(const openvdb::Coord& ijk, std::int32_t units);
   void start_flow();
