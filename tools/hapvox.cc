@@ -14,9 +14,19 @@
 #include "tools/cli.h"
 
 namespace hapvox::cli {
-void add_render_command(CLI::App& app);         // tools/cmd_render.cc
+void add_render_command(CLI::App& app);          // tools/cmd_render.cc
 void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
 }  // namespace hapvox::cli
+
+namespace {
+
+// Every diagnostic is one line of printable text, whatever a message echoes (file contents,
+// a binary file's name, a flag's value): control and non-ASCII bytes as \xNN, cut short.
+void print_diagnostic(const char* kind, const std::string& what, const char* suffix = "") {
+  std::fprintf(stderr, "hapvox: %s: %s%s\n", kind, hapvox::printable(what, 400).c_str(), suffix);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"hapvox: touch, press and sculpt 3D images with a haptic tool at 1 kHz", "hapvox"};
@@ -46,21 +56,21 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "hapvox: error: %s (see hapvox --help)\n", e.what());
+    print_diagnostic("error", e.what(), " (see hapvox --help)");
     return 2;
   } catch (const hapvox::InputError& e) {
-    std::fprintf(stderr, "hapvox: error: %s\n", e.what());
+    print_diagnostic("error", e.what());
     return 2;
   } catch (const hapvox::render::RenderError& e) {
     // No EGL, no surfaceless platform, a driver refusing the context: the machine's
     // set-up, not an internal error.
-    std::fprintf(stderr, "hapvox: error: %s\n", e.what());
+    print_diagnostic("error", e.what());
     return 2;
   } catch (const hapvox::cli::TimingBudgetBroken& e) {
-    std::fprintf(stderr, "hapvox: check-timing: %s\n", e.what());
+    print_diagnostic("check-timing", e.what());
     return 3;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "hapvox: internal error: %s\n", e.what());
+    print_diagnostic("internal error", e.what());
     return 1;
   }
   return 0;
