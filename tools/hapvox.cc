@@ -4,6 +4,7 @@
 // 3 check-timing: the force loop broke its timing budget.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 
@@ -24,6 +25,38 @@ namespace {
 // a binary file's name, a flag's value): control and non-ASCII bytes as \xNN, cut short.
 void print_diagnostic(const char* kind, const std::string& what, const char* suffix = "") {
   std::fprintf(stderr, "hapvox: %s: %s%s\n", kind, hapvox::printable(what, 400).c_str(), suffix);
+}
+
+bool is_command_of(const CLI::App& app, const std::string& name) {
+  const auto commands = app.get_subcommands([](const CLI::App*) { return true; });
+  return std::any_of(commands.begin(), commands.end(),
+                     [&](const CLI::App* c) { return c->check_name(name); });
+}
+
+// CLI11 answers `hapvox no-such-command --help` with the top-level help (exit 0) and
+// `hapvox no-such-command` with "arguments were not expected": both are an unknown command.
+// The first word that is not a flag names the command (the top level has no options taking
+// values); a command with commands of its own (trace, bench) and no positional arguments
+// takes the next word, when it is not a flag, as one of them.
+void check_command_names(const CLI::App& app, int argc, char** argv) {
+  int i = 1;
+  while (i < argc && argv[i][0] == '-' && std::string(argv[i]) != "--") ++i;
+  if (i >= argc || std::string(argv[i]) == "--") return;
+  const std::string name = argv[i];
+  if (!is_command_of(app, name)) {
+    throw hapvox::InputError(name, "unknown command (see hapvox --help)");
+  }
+  const CLI::App* command = app.get_subcommand(name);
+  const bool has_positionals =
+      !command->get_options([](const CLI::Option* o) { return o->get_positional(); }).empty();
+  if (i + 1 >= argc || argv[i + 1][0] == '-' || has_positionals ||
+      command->get_subcommands([](const CLI::App*) { return true; }).empty()) {
+    return;
+  }
+  const std::string sub = argv[i + 1];
+  if (!is_command_of(*command, sub)) {
+    throw hapvox::InputError(sub, "unknown command (see hapvox " + name + " --help)");
+  }
 }
 
 }  // namespace
@@ -48,6 +81,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_trace_command(app);
   hapvox::cli::add_render_command(app);
   try {
+    check_command_names(app, argc, argv);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);

@@ -1,5 +1,5 @@
 // The command line's shared guards (tools/hapvox.cc) end to end: errors are one printable
-// line whatever a file holds.
+// line whatever a file holds, and an unknown command is an error, with or without --help.
 
 #include <gtest/gtest.h>
 
@@ -99,5 +99,31 @@ TEST(CliErrors, FieldsAndNamesAreEscapedAndCut) {
                   "a\\x1B[2Jb.csv: cannot open file");
 }
 
+// Issue 8: `hapvox no-such-command --help` printed the help and exited 0.
+TEST(CliCommands, AnUnknownCommandIsAnErrorWithOrWithoutHelp) {
+  for (const char* args : {"no-such-command --help", "no-such-command", "no-such-command -h",
+                           "--help no-such-command", "no-such-command replay"}) {
+    const Result r = testing::run_hapvox(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(r.err, "hapvox: error: no-such-command: unknown command (see hapvox --help)\n")
+        << args;
+    EXPECT_EQ(r.out, "") << args;
+  }
+  for (const char* args : {"trace no-such --help", "trace no-such -o x.csv"}) {
+    const Result r = testing::run_hapvox(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(r.err, "hapvox: error: no-such: unknown command (see hapvox trace --help)\n") << args;
+  }
+  const Result bench = testing::run_hapvox("bench no-such --help");
+  EXPECT_EQ(bench.exit_code, 2);
+  EXPECT_EQ(bench.err, "hapvox: error: no-such: unknown command (see hapvox bench --help)\n");
+  // Known commands still answer --help, and a positional argument is not a command.
+  for (const char* args : {"--help", "trace --help", "trace make --help", "bench force --help"}) {
+    const Result r = testing::run_hapvox(args);
+    EXPECT_EQ(r.exit_code, 0) << args << r.err;
+    EXPECT_NE(r.out.find("Usage:"), std::string::npos) << args;
+  }
+  EXPECT_EQ(testing::run_hapvox("info block").exit_code, 0);
+}
 }  // namespace
 }  // namespace hapvox
