@@ -122,6 +122,17 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     if (!f.plastic) throw InputError("--sculpt-out", "needs --plastic");
     check_output_path(f.sculpt_out + ".vdb", "--sculpt-out");
   }
+  std::vector<InputPath> inputs = volume_inputs(f.volume);
+  inputs.push_back({f.trace_path, "trace"});
+  if (!f.render_dir.empty()) {
+    for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
+  }
+  const std::string& prefix = f.sculpt_out;  // writes PREFIX.vdb and PREFIX.nrrd
+  check_outputs_spare_inputs({{f.output, "--output", ""},
+                              {prefix.empty() ? "" : prefix + ".vdb", "--sculpt-out", ""},
+                              {prefix.empty() ? "" : prefix + ".nrrd", "--sculpt-out", ""},
+                              {f.render_dir, "--render-dir", kFrameFileNames}},
+                             inputs);
   if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
     throw InputError("--relax-tolerance", "must lie in [0, 10]");
   }
@@ -164,8 +175,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     if (f.render_every_ticks < 1) throw InputError("--render-every-ticks", "must be at least 1");
     const RenderSetup setup = resolve_render_flags(f.render, f.volume, field, "render-");
     recorder = std::make_unique<FrameRecorder>(field, setup, f.render_dir,
-                                               0.5 * model.options().tool.diameter_mm,
-                                               f.realtime);
+                                               0.5 * model.options().tool.diameter_mm, f.realtime);
   }
   haptics::SessionWriter session(f.output);
   session.set_attribute("command_line", command_line);
@@ -394,11 +404,12 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   }
   if (recorder) {
     if (f.realtime) {
-      std::printf("  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
-                  "p99 %.1f ms, max %.1f ms\n",
-                  recorder->frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
-                  1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
-                  1e-3 * timing.render_frame.max_us);
+      std::printf(
+          "  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
+          "p99 %.1f ms, max %.1f ms\n",
+          recorder->frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
+          1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
+          1e-3 * timing.render_frame.max_us);
     } else {
       std::printf("  render           %d frames to %s, every %zu ticks, %.1f ms a frame\n",
                   recorder->frames(), f.render_dir.c_str(), f.render_every_ticks,
@@ -433,7 +444,8 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
                   "realtime, every --render-every-ticks in lockstep)");
   cmd->add_option("--render-fps", flags->render_fps, "Realtime: the render thread's target rate")
       ->capture_default_str();
-  cmd->add_option("--render-every-ticks", flags->render_every_ticks, "Lockstep: a frame every N ticks")
+  cmd->add_option("--render-every-ticks", flags->render_every_ticks,
+                  "Lockstep: a frame every N ticks")
       ->capture_default_str();
   flags->render.size = "256";  // frames beside a force loop: small by default
   flags->render.add_to(*cmd, "render-");

@@ -1,5 +1,6 @@
-// The command line's shared guards (tools/hapvox.cc) end to end: errors are one printable
-// line whatever a file holds, and an unknown command is an error, with or without --help.
+// The command line's shared guards (tools/cli.cc, tools/hapvox.cc) end to end: outputs that
+// would overwrite an input are refused, errors are one printable line whatever a file
+// holds, and an unknown command is an error, with or without --help.
 
 #include <gtest/gtest.h>
 
@@ -22,6 +23,13 @@ using testing::scratch_dir;
 using testing::source_path;
 using Result = testing::CommandResult;
 
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 void write_file(const std::string& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;
 }
@@ -35,6 +43,95 @@ void expect_error_in(const std::string& dir, const std::string& args, const std:
   const Result r = run_in(dir, args);
   EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.out << r.err;
   EXPECT_EQ(r.err, "hapvox: error: " + line + "\n") << args;
+}
+
+// Issue 8 point 7: `hapvox replay p.csv --volume block -o p.csv` overwrote the trace.
+TEST(CliOutputs, AnOutputNamingAnInputIsRefusedAndTheInputKept) {
+  const std::string dir = scratch_dir();
+  write_file(dir + "/p.csv", slurp(source_path("traces/clay_stroke.csv")));
+  write_file(dir + "/q.csv.partial", slurp(source_path("traces/clay_stroke.csv")));
+  fs::create_symlink("p.csv", dir + "/link.csv");
+  engine::write_nrrd(engine::generate_volume("block:dims=32"), dir + "/clay.nrrd");
+  engine::write_vdb(engine::generate_volume("block:dims=32"), dir + "/clay.vdb");
+  // A detached NRRD header and its data file.
+  write_file(dir + "/d.raw", std::string(64, '\1'));
+  write_file(dir + "/d.nhdr",
+             "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+             "data file: d.raw\n\n");
+  write_file(dir + "/frame_0002.png", "0 0 0 0 0\n1 1 1 1 1\n");  // a transfer function
+  std::vector<std::string> inputs = {"p.csv", "q.csv.partial", "clay.nrrd",     "clay.vdb",
+                                     "d.raw", "d.nhdr",        "frame_0002.png"};
+  std::vector<std::string> before;
+  for (const std::string& name : inputs) before.push_back(slurp(dir + "/" + name));
+
+  const std::string trace = "replay p.csv --volume block:dims=32 ";
+  expect_error_in(dir, trace + "-o p.csv", "p.csv: --output would overwrite the input trace p.csv");
+  expect_error_in(dir, trace + "-o ./p.csv",
+                  "./p.csv: --output would overwrite the input trace p.csv");
+  expect_error_in(dir, trace + "-o " + dir + "/p.csv",
+                  dir + "/p.csv: --output would overwrite the input trace p.csv");
+  expect_error_in(dir, trace + "-o link.csv",
+                  "link.csv: --output would overwrite the input trace p.csv");
+  expect_error_in(dir, "replay link.csv --volume block -o p.csv",
+                  "p.csv: --output would overwrite the input trace link.csv");
+  expect_error_in(dir, "replay p.csv --volume block -o p.csv --realtime",
+                  "p.csv: --output would overwrite the input trace p.csv");
+  expect_error_in(dir, "check-timing p.csv --volume block -o p.csv",
+                  "p.csv: --output would overwrite the input trace p.csv");
+  // The session is written as q.csv.partial first.
+  expect_error_in(dir, "replay q.csv.partial --volume block -o q.csv",
+                  "q.csv: --output would overwrite the input trace q.csv.partial (written first "
+                  "as q.csv.partial)");
+  // Volumes, and --sculpt-out clay, which writes clay.vdb and clay.nrrd.
+  expect_error_in(dir, "replay p.csv --volume clay.nrrd -o clay.nrrd",
+                  "clay.nrrd: --output would overwrite the input volume clay.nrrd");
+  expect_error_in(dir, "replay p.csv --volume clay.nrrd --plastic -o s.h5 --sculpt-out clay",
+                  "clay.nrrd: --sculpt-out would overwrite the input volume clay.nrrd");
+  expect_error_in(dir, "replay p.csv --volume ./clay.vdb --plastic -o s.h5 --sculpt-out clay",
+                  "clay.vdb: --sculpt-out would overwrite the input volume ./clay.vdb");
+  expect_error_in(dir, "replay p.csv --volume d.nhdr -o d.raw",
+                  "d.raw: --output would overwrite the input volume data file d.raw");
+  // Directories of frames (frame_NNNN.png) and of pictures.
+  expect_error_in(dir,
+                  "replay p.csv --volume block -o s.h5 --render-dir . --render-transfer "
+                  "frame_0002.png",
+                  ".: --render-dir would overwrite the input transfer function frame_0002.png (a "
+                  "file it writes into .)");
+  expect_error_in(dir, "render block -o " + dir + " --transfer frame_0002.png",
+                  dir +
+                      ": --output would overwrite the input transfer function frame_0002.png (a "
+                      "file it writes into " +
+                      dir + ")");
+  expect_error_in(dir, "render clay.nrrd -o clay.nrrd",
+                  "clay.nrrd: --output would overwrite the input volume clay.nrrd");
+  // Nothing was written, and every input is byte for byte what it was.
+  EXPECT_FALSE(fs::exists(dir + "/s.h5"));
+  EXPECT_FALSE(fs::exists(dir + "/p.csv.partial"));
+  EXPECT_FALSE(fs::exists(dir + "/clay.vdb.partial"));
+  EXPECT_FALSE(fs::exists(dir + "/frame_0000.png"));
+  for (std::size_t i = 0; i < inputs.size(); ++i) {
+    EXPECT_EQ(slurp(dir + "/" + inputs[i]), before[i]) << inputs[i];
+  }
+  EXPECT_TRUE(fs::is_symlink(dir + "/link.csv"));
+  // An output beside its inputs is fine.
+  const Result ok = run_in(dir, trace + "-o s.h5 -q");
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+}
+
+// `hapvox report SESSION -o DIR` writes force.png, lateness.png and relax.png into DIR.
+TEST(CliOutputs, ReportRefusesAPictureNamedLikeItsSession) {
+  const std::string dir = scratch_dir();
+  const std::string session = dir + "/force.png";
+  write_file(dir + "/t.csv", "t,x,y,z\n0,64,64,90\n0.01,64,64,89\n");
+  ASSERT_EQ(run_in(dir, "replay t.csv --volume block -o s.h5").exit_code, 0);
+  fs::rename(dir + "/s.h5", session);
+  const std::string before = slurp(session);
+  expect_error_in(dir, "report force.png -o .",
+                  ".: --output would overwrite the input session force.png (a file it writes "
+                  "into .)");
+  expect_error_in(dir, "report force.png -o force.png",
+                  "force.png: --output would overwrite the input session force.png");
+  EXPECT_EQ(slurp(session), before);
 }
 
 bool printable_ascii(const std::string& text) {
@@ -125,5 +222,6 @@ TEST(CliCommands, AnUnknownCommandIsAnErrorWithOrWithoutHelp) {
   }
   EXPECT_EQ(testing::run_hapvox("info block").exit_code, 0);
 }
+
 }  // namespace
 }  // namespace hapvox
