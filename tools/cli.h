@@ -103,4 +103,14 @@ std::vector<InputPath> transfer_inputs(const std::string& spec);
 void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
                                 const std::vector<InputPath>& inputs);
 
+/// What deserves a warning before a replay of `trace_path` runs, one line each (without the
+/// "hapvox: warning: " that print_warnings adds): a tool that stays wholly outside the
+/// volume's box at every tick, and a tool that starts inside the material (its first
+/// contact has no free position before it, so its force starts from zero there).
+std::vector<std::string> replay_warnings(const std::string& trace_path,
+                                         const engine::ToolForceModel& model,
+                                         const haptics::TraceDevice& device);
+/// Prints each as "hapvox: warning: LINE" on stderr, after what stdout holds so far.
+void print_warnings(const std::vector<std::string>& warnings);
+
 }  // namespace hapvox::cli

@@ -165,6 +165,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   resample_options.rate_hz = f.trace.rate_hz;
   resample_options.max_gap_s = f.trace.max_gap_s;
   const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
+  const std::vector<std::string> warnings = replay_warnings(f.trace_path, model, device);
 
   // The render output before the session: a machine without EGL fails before any file.
   std::unique_ptr<FrameRecorder> recorder;
@@ -422,6 +423,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (s.nonfinite_forces > 0) {
     std::printf("  non-finite forces replaced by zero: %zu\n", s.nonfinite_forces);
   }
+  print_warnings(warnings);
   return ReplayResult{s, timing, sculpted};
 }
 
