@@ -484,6 +484,19 @@ bool has_extension(const std::string& path, const std::string& ext) {
 
 // -----------------------------------------------------------------------------------------
 
+std::string nrrd_data_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");
+  const NrrdHeader header = read_header(in, path);
+  const std::string* data_file = find_field(header, "data file");
+  if (data_file == nullptr || data_file->rfind("LIST", 0) == 0 ||
+      data_file->find('%') != std::string::npos || split_ws(*data_file).size() != 1) {
+    return "";
+  }
+  const fs::path file(*data_file);
+  return (file.is_relative() ? fs::path(path).parent_path() / file : file).string();
+}
+
 RawVolume read_nrrd(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");

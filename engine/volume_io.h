@@ -28,6 +28,11 @@ struct RawVolume {
 /// corrupt payload, NaN or infinite samples, non-positive spacing.
 RawVolume read_nrrd(const std::string& path);
 
+/// The detached data file a NRRD header names ("data file: F", F resolved against the
+/// header's folder as read_nrrd does), or "" when its data is attached (or multi-file).
+/// Throws InputError on a file that is not a NRRD.
+std::string nrrd_data_file(const std::string& path);
+
 /// Writes a density field as a NRRD (float, gzip, attached header) with spacings and
 /// origin, covering the index box [0, dims). Written to PATH.partial then renamed.
 void write_nrrd(const DensityField& field, const std::string& path);

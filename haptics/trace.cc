@@ -278,6 +278,10 @@ Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
   buffer << in.rdbuf();
   std::string text = buffer.str();
   if (text.starts_with("\xEF\xBB\xBF")) text.erase(0, 3);
+  // A binary file (an .h5, a volume, an archive) is not read as lines: no CSV holds a NUL.
+  if (text.find('\0') != std::string::npos) {
+    throw InputError(path, "not a CSV text file (it holds NUL bytes: binary data?)");
+  }
 
   // Walk lines by hand so each keeps its 1-based number for messages.
   std::size_t pos = 0;
@@ -310,7 +314,9 @@ Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
     if (it == names.end()) {
       std::string list;
       for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-      throw InputError(path, "missing column '" + name + "' (columns are: " + list + ")");
+      // The header is echoed as printable text, cut short: it may be anything.
+      throw InputError(path, "missing column '" + printable(name, 40) +
+                                 "' (columns are: " + printable(list, 80) + ")");
     }
     return static_cast<std::size_t>(it - names.begin());
   };
@@ -332,8 +338,8 @@ Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
     const auto number = [&](std::size_t index) {
       double v = 0.0;
       if (!parse_double(fields[index], &v)) {
-        throw InputError(
-            path, where + ": column '" + names[index] + "': not a number: '" + fields[index] + "'");
+        throw InputError(path, where + ": column '" + printable(names[index], 40) +
+                                   "': not a number: '" + printable(fields[index], 40) + "'");
       }
       return v;
     };

@@ -1,8 +1,20 @@
 #!/usr/bin/env bash
-# Configures and builds hapvox. Usage: scripts/build.sh [BUILD_DIR] [extra cmake args...]
+# Configures and builds hapvox.
+# Usage: scripts/build.sh [--target TARGET] [BUILD_DIR] [extra cmake args...]
+# Without --target, everything (the hapvox command and the test suite) is built. The
+# compiler runs through ccache when ccache is on PATH (its cache lives under $HOME).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+target=()
+if [ "${1:-}" = "--target" ]; then
+  target=(--target "${2:?"--target needs a target name, e.g. hapvox"}")
+  shift 2
+fi
 build_dir=${1:-"$root/build"}
 shift || true
-cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
-cmake --build "$build_dir" -j "$(nproc)"
+launcher=()
+if command -v ccache >/dev/null 2>&1; then
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+fi
+cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" "$@" >/dev/null
+cmake --build "$build_dir" -j "$(nproc)" "${target[@]}"

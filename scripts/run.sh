@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds, and replays the bundled press trace on
-# the bundled engine CT, writing engine_press.h5 (an HDF5 session) in the current folder.
+# The main job: installs what is missing, builds the hapvox command (not the test suite:
+# scripts/test.sh builds that), and replays the bundled press trace on the bundled engine
+# CT, writing engine_press.h5 (an HDF5 session) in the current folder.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/scripts/setup.sh"
 mkdir -p "$root/build"
-if ! bash "$root/scripts/build.sh" "$root/build" >"$root/build/build.log" 2>&1; then
+if ! bash "$root/scripts/build.sh" --target hapvox "$root/build" >"$root/build/build.log" 2>&1; then
   tail -n 60 "$root/build/build.log"
   echo "run.sh: build failed (full log: $root/build/build.log)" >&2
   exit 1

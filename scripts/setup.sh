@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake pkg-config
+  build-essential cmake pkg-config ccache
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
   libhdf5-dev libeigen3-dev libcli11-dev zlib1g-dev libatomic-queue-dev
   libgtest-dev libgmock-dev libbenchmark-dev

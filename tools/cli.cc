@@ -1,11 +1,16 @@
 #include "tools/cli.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <optional>
+#include <regex>
 #include <sstream>
+#include <system_error>
 
 #include "engine/errors.h"
+#include "render/transfer_function.h"
 
 namespace hapvox::cli {
 namespace {
@@ -206,6 +211,85 @@ void check_output_path(const std::string& output, const std::string& flag) {
     throw InputError(output, "output directory " + parent.string() + " does not exist");
   }
   if (fs::is_directory(output)) throw InputError(output, "is a directory, expected a file name");
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// The same file: one inode (hard or symbolic links, `./x` and `x`) when both exist, else the
+// same path once symbolic links and `.`/`..` are resolved.
+bool same_file(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  if (fs::equivalent(a, b, ec)) return true;
+  const auto resolved = [](const fs::path& p) {
+    std::error_code error;
+    const fs::path absolute = fs::absolute(p, error);
+    const fs::path canonical = fs::weakly_canonical(error ? p : absolute, error);
+    return (error ? absolute : canonical).lexically_normal();
+  };
+  return resolved(a) == resolved(b);
+}
+
+// Why writing `output` would replace the existing file `input` ("" when it names it), or
+// nothing when it would not.
+std::optional<std::string> overwrite_reason(const OutputPath& output, const fs::path& input) {
+  const fs::path path(output.path);
+  if (same_file(path, input)) return "";
+  if (output.files_in_dir.empty()) {
+    if (same_file(output.path + ".partial", input)) {
+      return " (written first as " + output.path + ".partial)";
+    }
+    return std::nullopt;
+  }
+  const bool in_dir = same_file(path, input.has_parent_path() ? input.parent_path() : ".");
+  std::string name = input.filename().string();
+  if (name.ends_with(".partial")) name.resize(name.size() - 8);
+  if (in_dir && std::regex_match(name, std::regex(output.files_in_dir))) {
+    return " (a file it writes into " + output.path + ")";
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<InputPath> volume_inputs(const std::string& spec) {
+  std::vector<InputPath> inputs;
+  if (spec.empty() || !fs::exists(spec)) return inputs;
+  inputs.push_back({spec, "volume"});
+  if (fs::path(spec).extension() == ".nhdr") {
+    try {
+      const std::string data = engine::nrrd_data_file(spec);
+      if (!data.empty()) inputs.push_back({data, "volume data file"});
+    } catch (const InputError&) {
+      // A bad header is reported, better, when the volume is read.
+    }
+  }
+  return inputs;
+}
+
+std::vector<InputPath> transfer_inputs(const std::string& spec) {
+  const auto presets = render::TransferFunction::preset_names();
+  if (spec.empty() || spec == "auto" ||
+      std::find(presets.begin(), presets.end(), spec) != presets.end()) {
+    return {};
+  }
+  return {{spec, "transfer function"}};
+}
+
+void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
+                                const std::vector<InputPath>& inputs) {
+  for (const InputPath& input : inputs) {
+    std::error_code ec;
+    if (input.path.empty() || !fs::exists(input.path, ec)) continue;  // nothing to lose
+    for (const OutputPath& output : outputs) {
+      if (output.path.empty()) continue;
+      if (const auto why = overwrite_reason(output, input.path)) {
+        throw InputError(output.path, output.flag + " would overwrite the input " + input.what +
+                                          " " + input.path + *why);
+      }
+    }
+  }
 }
 
 }  // namespace hapvox::cli

@@ -89,4 +89,40 @@ void add_trace_command(CLI::App& app);
 /// Fails with InputError(flag, "directory ... does not exist") when OUTPUT's folder is missing.
 void check_output_path(const std::string& output, const std::string& flag);
 
+/// Something a command writes: a file (written as PATH.partial, then renamed), or, with
+/// `files_in_dir` (a regular expression on file names), a directory it writes such files
+/// into (again each through NAME.partial).
+struct OutputPath {
+  std::string path;
+  std::string flag;  // the flag that named it, for the message
+  std::string files_in_dir;
+};
+/// Something a command reads: a path and what it is ("trace", "volume", ...).
+struct InputPath {
+  std::string path;
+  std::string what;
+};
+/// The files a volume spec reads: none for a generator, the file itself, and a detached
+/// NRRD header's data file.
+std::vector<InputPath> volume_inputs(const std::string& spec);
+/// A --transfer value that names a file rather than a preset, as an input; else none.
+std::vector<InputPath> transfer_inputs(const std::string& spec);
+
+/// Every command calls this before it writes anything: fails with InputError(OUTPUT, "FLAG
+/// would overwrite the input WHAT INPUT") when an output (or its NAME.partial, or a file an
+/// output directory receives) is an existing input file. Paths are compared as files, not
+/// as text: `./p.csv` and `p.csv`, symbolic and hard links to the same file all match.
+void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
+                                const std::vector<InputPath>& inputs);
+
+/// What deserves a warning before a replay of `trace_path` runs, one line each (without the
+/// "hapvox: warning: " that print_warnings adds): a tool that stays wholly outside the
+/// volume's box at every tick, and a tool that starts inside the material (its first
+/// contact has no free position before it, so its force starts from zero there).
+std::vector<std::string> replay_warnings(const std::string& trace_path,
+                                         const engine::ToolForceModel& model,
+                                         const haptics::TraceDevice& device);
+/// Prints each as "hapvox: warning: LINE" on stderr, after what stdout holds so far.
+void print_warnings(const std::vector<std::string>& warnings);
+
 }  // namespace hapvox::cli

@@ -52,6 +52,11 @@ void run_render(const RenderCommandFlags& f) {
     throw InputError("--turntable", "cannot be combined with --trace");
   }
   if (f.plastic && f.trace_path.empty()) throw InputError("--plastic", "needs --trace");
+  std::vector<InputPath> inputs = volume_inputs(f.volume);
+  if (!f.trace_path.empty()) inputs.push_back({f.trace_path, "trace"});
+  for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
+  const std::string written = std::string(kFrameFileNames) + (f.video ? "|frames\\.mp4" : "");
+  check_outputs_spare_inputs({{f.output, "--output", written}}, inputs);
   const engine::IntensityMapping mapping = f.mapping.resolve();
   engine::DensityField field = engine::load_volume(f.volume, mapping);
   const RenderSetup setup = resolve_render_flags(f.render, f.volume, field);

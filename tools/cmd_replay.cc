@@ -118,6 +118,17 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     if (!f.plastic) throw InputError("--sculpt-out", "needs --plastic");
     check_output_path(f.sculpt_out + ".vdb", "--sculpt-out");
   }
+  std::vector<InputPath> inputs = volume_inputs(f.volume);
+  inputs.push_back({f.trace_path, "trace"});
+  if (!f.render_dir.empty()) {
+    for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
+  }
+  const std::string& prefix = f.sculpt_out;  // writes PREFIX.vdb and PREFIX.nrrd
+  check_outputs_spare_inputs({{f.output, "--output", ""},
+                              {prefix.empty() ? "" : prefix + ".vdb", "--sculpt-out", ""},
+                              {prefix.empty() ? "" : prefix + ".nrrd", "--sculpt-out", ""},
+                              {f.render_dir, "--render-dir", kFrameFileNames}},
+                             inputs);
   if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
     throw InputError("--relax-tolerance", "must lie in [0, 10]");
   }
@@ -152,6 +163,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   resample_options.rate_hz = f.trace.rate_hz;
   resample_options.max_gap_s = f.trace.max_gap_s;
   const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
+  const std::vector<std::string> warnings = replay_warnings(f.trace_path, model, device);
 
   // The render output before the session: a machine without EGL fails before any file.
   std::unique_ptr<FrameRecorder> recorder;
@@ -412,6 +424,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (s.nonfinite_forces > 0) {
     std::printf("  non-finite forces replaced by zero: %zu\n", s.nonfinite_forces);
   }
+  print_warnings(warnings);
   return ReplayResult{s, timing, sculpted};
 }
 

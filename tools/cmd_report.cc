@@ -40,6 +40,8 @@ void run_report(const ReportFlags& f) {
     throw InputError(f.session, std::filesystem::exists(f.session) ? "not an HDF5 session file"
                                                                    : "no such file");
   }
+  check_outputs_spare_inputs({{f.out_dir, "--output", "(force|lateness|relax)\\.png"}},
+                             {{f.session, "session"}});
   const haptics::SessionInfo info = haptics::read_session_info(f.session);
   if (info.rows == 0) throw InputError(f.session, "the session has no rows");
   const std::string probe = quoted(f.python) + " -c 'import matplotlib, h5py, numpy' 2>/dev/null";

@@ -4,6 +4,7 @@
 // 3 check-timing: the force loop broke its timing budget.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 
@@ -17,6 +18,48 @@ namespace hapvox::cli {
 void add_render_command(CLI::App& app);          // tools/cmd_render.cc
 void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
 }  // namespace hapvox::cli
+
+namespace {
+
+// Every diagnostic is one line of printable text, whatever a message echoes (file contents,
+// a binary file's name, a flag's value): control and non-ASCII bytes as \xNN, cut short.
+void print_diagnostic(const char* kind, const std::string& what, const char* suffix = "") {
+  std::fprintf(stderr, "hapvox: %s: %s%s\n", kind, hapvox::printable(what, 400).c_str(), suffix);
+}
+
+bool is_command_of(const CLI::App& app, const std::string& name) {
+  const auto commands = app.get_subcommands([](const CLI::App*) { return true; });
+  return std::any_of(commands.begin(), commands.end(),
+                     [&](const CLI::App* c) { return c->check_name(name); });
+}
+
+// CLI11 answers `hapvox no-such-command --help` with the top-level help (exit 0) and
+// `hapvox no-such-command` with "arguments were not expected": both are an unknown command.
+// The first word that is not a flag names the command (the top level has no options taking
+// values); a command with commands of its own (trace, bench) and no positional arguments
+// takes the next word, when it is not a flag, as one of them.
+void check_command_names(const CLI::App& app, int argc, char** argv) {
+  int i = 1;
+  while (i < argc && argv[i][0] == '-' && std::string(argv[i]) != "--") ++i;
+  if (i >= argc || std::string(argv[i]) == "--") return;
+  const std::string name = argv[i];
+  if (!is_command_of(app, name)) {
+    throw hapvox::InputError(name, "unknown command (see hapvox --help)");
+  }
+  const CLI::App* command = app.get_subcommand(name);
+  const bool has_positionals =
+      !command->get_options([](const CLI::Option* o) { return o->get_positional(); }).empty();
+  if (i + 1 >= argc || argv[i + 1][0] == '-' || has_positionals ||
+      command->get_subcommands([](const CLI::App*) { return true; }).empty()) {
+    return;
+  }
+  const std::string sub = argv[i + 1];
+  if (!is_command_of(*command, sub)) {
+    throw hapvox::InputError(sub, "unknown command (see hapvox " + name + " --help)");
+  }
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"hapvox: touch, press and sculpt 3D images with a haptic tool at 1 kHz", "hapvox"};
@@ -39,6 +82,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_render_command(app);
   hapvox::cli::add_validate_command(app);
   try {
+    check_command_names(app, argc, argv);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
@@ -47,24 +91,24 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "hapvox: error: %s (see hapvox --help)\n", e.what());
+    print_diagnostic("error", e.what(), " (see hapvox --help)");
     return 2;
   } catch (const hapvox::InputError& e) {
-    std::fprintf(stderr, "hapvox: error: %s\n", e.what());
+    print_diagnostic("error", e.what());
     return 2;
   } catch (const hapvox::render::RenderError& e) {
     // No EGL, no surfaceless platform, a driver refusing the context: the machine's
     // set-up, not an internal error.
-    std::fprintf(stderr, "hapvox: error: %s\n", e.what());
+    print_diagnostic("error", e.what());
     return 2;
   } catch (const hapvox::cli::TimingBudgetBroken& e) {
-    std::fprintf(stderr, "hapvox: check-timing: %s\n", e.what());
+    print_diagnostic("check-timing", e.what());
     return 3;
   } catch (const hapvox::cli::ValidationFailed& e) {
     std::fprintf(stderr, "hapvox: validate: %s\n", e.what());
     return 3;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "hapvox: internal error: %s\n", e.what());
+    print_diagnostic("internal error", e.what());
     return 1;
   }
   return 0;

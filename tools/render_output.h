@@ -14,6 +14,9 @@
 
 namespace hapvox::cli {
 
+/// The files a FrameRecorder writes into its directory (a regular expression on names).
+inline constexpr const char* kFrameFileNames = "frame_[0-9]{4,}\\.png";
+
 /// --transfer, --size, --slices, --tessellation, --patches, --kernel, --support-mm,
 /// --azimuth-deg, --elevation-deg (with a prefix such as "render-" where a command has
 /// flags of its own).
@@ -37,8 +40,7 @@ struct RenderSetup {
   double azimuth_deg = 0, elevation_deg = 0;
 };
 RenderSetup resolve_render_flags(const RenderFlags& flags, const std::string& volume_spec,
-                                 const engine::DensityField& field,
-                                 const std::string& prefix = "");
+                                 const engine::DensityField& field, const std::string& prefix = "");
 
 class FrameRecorder {
  public:

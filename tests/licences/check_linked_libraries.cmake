@@ -1,0 +1,63 @@
+# Fails when `ldd BINARY` lists a shared library that no entry of ALLOWLIST matches, or one
+# that is not found. Usage:
+#   cmake -DBINARY=build/tools/hapvox -DALLOWLIST=tests/licences/allowed_libraries.txt \
+#         [-DLDD_OUTPUT=file-holding-ldd-output] -P tests/licences/check_linked_libraries.cmake
+if(DEFINED LDD_OUTPUT)
+  file(READ "${LDD_OUTPUT}" ldd)
+  set(BINARY "${LDD_OUTPUT}")
+else()
+  execute_process(COMMAND ldd "${BINARY}" OUTPUT_VARIABLE ldd ERROR_VARIABLE ldd_error
+                  RESULT_VARIABLE ldd_status)
+  if(NOT ldd_status EQUAL 0)
+    message(FATAL_ERROR "ldd ${BINARY} failed: ${ldd_error}")
+  endif()
+endif()
+
+file(STRINGS "${ALLOWLIST}" allow_lines)
+set(patterns "")
+foreach(line IN LISTS allow_lines)
+  string(REGEX REPLACE "#.*" "" line "${line}")
+  string(STRIP "${line}" line)
+  if(NOT line STREQUAL "")
+    list(APPEND patterns "${line}")
+  endif()
+endforeach()
+
+string(REPLACE "\n" ";" ldd_lines "${ldd}")
+set(count 0)
+set(problems "")
+foreach(line IN LISTS ldd_lines)
+  string(STRIP "${line}" line)
+  if(line STREQUAL "")
+    continue()
+  endif()
+  string(REGEX MATCH "^[^ \t]+" name "${line}")
+  get_filename_component(name "${name}" NAME)
+  math(EXPR count "${count} + 1")
+  if(line MATCHES "not found")
+    list(APPEND problems "${name}: not found")
+    continue()
+  endif()
+  set(allowed FALSE)
+  foreach(pattern IN LISTS patterns)
+    if(name MATCHES "^(${pattern})$")
+      set(allowed TRUE)
+      break()
+    endif()
+  endforeach()
+  if(NOT allowed)
+    list(APPEND problems "${name}: not in the allowlist")
+  endif()
+endforeach()
+
+if(count EQUAL 0)
+  message(FATAL_ERROR "${BINARY}: ldd listed no libraries")
+endif()
+if(problems)
+  list(JOIN problems "\n  " text)
+  message(FATAL_ERROR "${BINARY} loads libraries whose licences were not checked:\n  ${text}\n"
+                      "Check each against /usr/share/doc/PACKAGE/copyright; add it to ${ALLOWLIST} "
+                      "and docs/licences.md only if its licence is compatible with Apache-2.0 "
+                      "(no GPL or AGPL).")
+endif()
+message(STATUS "${BINARY}: ${count} shared libraries, each in the allowlist")
