@@ -151,6 +151,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   }
   engine::ToolForceState state =
       sculpt != nullptr ? model.make_state(sculpt->field->buffer(1)) : model.make_state();
+  ForceRamp ramp(limits, device.rate_hz());
   std::uint64_t plastic_events = 0;
   std::size_t nonfinite_forces = 0;
   std::size_t max_queue_depth = 0;
@@ -191,7 +192,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       if (hooks.before_tick) hooks.before_tick(tick);
       TickRecord& row = rows[tick];
       if (sculpt != nullptr) state.read_from(sculpt->field->acquire_for_reading());
-      const bool nonfinite = run_force_stage(model, device, tick, limits, state,
+      const bool nonfinite = run_force_stage(model, device, tick, limits, state, ramp,
                                              sculpt != nullptr ? sculpt->channel : nullptr, row);
       nonfinite_forces += nonfinite ? 1 : 0;
       const auto end = Clock::now();
@@ -210,10 +211,12 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       row.start_ns = ns_between(start, begin);
       row.compute_ns = ns_between(begin, end);
       if (row.start_ns + row.compute_ns > row.scheduled_ns + watchdog_ns) {
-        // Too late to be the force for this instant: send nothing rather than a stale push.
-        row.force_n = Vec3d::Zero();
+        // A stall: this tick's force is late but fresh and finite, so it is sent as
+        // computed (zeroing it would be a step). From the next tick on the ramp takes the
+        // force down to zero and back in, at the ramp-in's slope.
         row.watchdog = 1;
         ++watchdog_trips;
+        ramp.trip();
       }
       if (feed != nullptr) {
         feed->tool.publish(RenderToolState{row.tool_position_mm, state.displacement_mm,
@@ -323,6 +326,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     timing->lateness = duration_stats(lateness_us);
     timing->missed_deadlines = missed;
     timing->watchdog_trips = watchdog_trips;
+    timing->watchdog_ramped_ticks = ramp.reduced_ticks();
     timing->stalled_ticks = stalled;
     timing->force_cpu_s = force_cpu_s;
     timing->force_involuntary_switches = force_switches;
