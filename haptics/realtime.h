@@ -11,7 +11,8 @@
 //                    max_deletions_per_slice deletions, then at most relax_voxels_per_slice
 //                    relaxation steps), each followed by the publication of changed voxels
 //                    into the back buffer of a DoubleBufferedField; exact mass measured
-//                    every ~50 ms.
+//                    every ~50 ms while the grid changes. With no work it sleeps until the
+//                    force thread pushes a change (SurfaceChangeChannel::wait_for_arrival).
 //   calling thread   appends finished rows to the session (~10 times a second) and
 //                    reports progress.
 

@@ -305,6 +305,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       session.set_attribute("summary_relax_slice_p99_us", timing.relax_slice.p99_us);
       session.set_attribute("summary_relax_slice_max_us", timing.relax_slice.max_us);
       session.set_attribute("summary_relax_busy_fraction", timing.relax_busy_fraction);
+      session.set_attribute("summary_relax_cpu_s", timing.relax_cpu_s);
       session.write_array("timing/relax_slice_ns", timing.relax_slice_ns, "ns");
       session.write_array("timing/relax_slice_start_ns", timing.relax_slice_start_ns, "ns");
     }

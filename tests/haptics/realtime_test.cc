@@ -237,6 +237,77 @@ TEST(Realtime, AStallSendsTheLateForceThenRampsItDownAndBackWithoutAStep) {
       static_cast<unsigned long long>(timing.watchdog_ramped_ticks));
 }
 
+// Issue 8 point 7: a sculpting realtime replay with nothing to relax (the tool hovers over
+// the block) leaves the relaxation thread asleep, not polling. Before, it woke every
+// 200 us and summed the whole grid's mass every 50 ms.
+TEST(Realtime, AnIdleRelaxationThreadSleeps) {
+  const engine::DensityField field = engine::generate_volume("block:dims=160");
+  DoubleBufferedField buffers(field);
+  const engine::ToolForceModel model(buffers.buffer(0), fixtures::clay_tool());
+  engine::MassGrid mass(field);
+  SurfaceChangeChannel channel;
+  RealtimeSculpt sculpt{&mass, &buffers, &channel, 2000, 8};
+  TraceMakeOptions make;
+  make.shape = TraceShape::kPress;
+  make.start_mm = Vec3d(60.0, 60.0, 120.0);  // face at z = 79.5: 36 mm below the tool
+  make.travel_mm = 1.0;
+  make.speed_mm_s = 10.0;
+  make.hold_s = 2.0;
+  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  ASSERT_GE(device.tick_count(), 2000u);
+  SculptSummary sculpted;
+  TimingSummary timing;
+  const ReplaySummary summary =
+      replay_realtime(model, device, DeviceLimits{}, nullptr, {}, &sculpt, &sculpted, &timing);
+  EXPECT_EQ(summary.contact_ticks, 0u);
+  EXPECT_EQ(sculpted.plastic_events, 0u);
+  EXPECT_EQ(sculpted.final_mass_units, sculpted.initial_mass_units);
+  std::printf("relaxation thread: %.4f s CPU in %.3f s wall\n", timing.relax_cpu_s,
+              timing.wall_time_s);
+  EXPECT_LT(timing.relax_cpu_s, 0.05 * timing.wall_time_s)
+      << timing.relax_cpu_s << " s CPU in " << timing.wall_time_s << " s";
+}
+
+// And a sleeping relaxation thread wakes on the force thread's first push: the tool
+// hovers for 0.5 s, then presses into the clay. The first slice that works after the
+// first plastic event starts within a few milliseconds of it (a missed wake-up would
+// leave the work for the end of the run), and the mass stays exact.
+TEST(Realtime, ASleepingRelaxationThreadWakesOnTheFirstSurfaceChange) {
+  const std::string path = testing::scratch_dir() + "/rt.h5";
+  TraceMakeOptions make;
+  make.shape = TraceShape::kPress;
+  make.start_mm = Vec3d(24.3, 24.4, 23.5 + 4.0 + 10.0);
+  make.travel_mm = 14.0;
+  make.speed_mm_s = 20.0;
+  make.hold_s = 0.3;
+  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  const RealtimeRun run = sculpt_realtime(device, path);
+  ASSERT_GT(run.sculpt.plastic_events, 0u);
+  EXPECT_EQ(run.sculpt.final_mass_units, run.sculpt.initial_mass_units);
+  const auto event = read_session_column(path, "/plastic/event");
+  const auto scheduled = read_session_column(path, "/timing/scheduled_ns");
+  const auto deleted = read_session_column(path, "/relax/deleted_voxels");
+  std::size_t first = 0;
+  while (event[first] == 0.0) ++first;
+  ASSERT_GT(first, 400u);  // after a long idle stretch
+  const double event_ns = scheduled[first];
+  std::int64_t woke_ns = -1;
+  for (std::size_t i = 0; i < run.timing.relax_slice_start_ns.size(); ++i) {
+    if (run.timing.relax_slice_start_ns[i] + run.timing.relax_slice_ns[i] >= event_ns) {
+      woke_ns = run.timing.relax_slice_start_ns[i];
+      break;
+    }
+  }
+  ASSERT_GE(woke_ns, 0);
+  std::printf("first surface change at %.3f ms, relaxation slice at %.3f ms\n", 1e-6 * event_ns,
+              1e-6 * static_cast<double>(woke_ns));
+  EXPECT_LT(static_cast<double>(woke_ns) - event_ns, 20e6) << "woke late: " << woke_ns;
+  // The force thread saw the deletions during the run, not only after it.
+  double deleted_in_run = 0.0;
+  for (double d : deleted) deleted_in_run += d;
+  EXPECT_GT(deleted_in_run, 0.0);
+}
+
 TEST(Realtime, ForceLoopDoesNotAllocateAfterStart) {
   // 10 kHz for 1.3 s: more than 10,000 ticks, with contact, plastic events and the
   // relaxation thread publishing buffers underneath.
