@@ -69,6 +69,10 @@ struct RelaxCounters {
   std::atomic<std::int64_t> mass_units{0};
 };
 
+// The relaxation thread. It works in bounded slices while there is work (queued deletions,
+// voxels to relax, a flow in flight, changes to publish or to hand to the renderer) and
+// sleeps in the channel's wait_for_arrival() when there is none: an idle thread costs no
+// CPU and wakes on the force thread's next push (or its end), not on a timer.
 void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
                 RelaxCounters& counters, Clock::time_point start,
                 std::vector<std::int64_t>& slice_ns, std::vector<std::int64_t>& slice_start_ns,
@@ -76,7 +80,11 @@ void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
   const double cpu_start = thread_cpu_s();
   std::vector<openvdb::Coord> published;
   auto last_mass = Clock::now();
+  bool mass_stale = false;  // work done since the last exact mass measurement
   while (true) {
+    // Arrivals before force_done: a push or the end announced after these loads bumps
+    // the count, so the wait below returns at once instead of sleeping through it.
+    const std::uint32_t arrivals = sculpt.channel->arrivals();
     const bool finishing = force_done.load(std::memory_order_acquire);
     const auto slice_begin = Clock::now();
     const RelaxStageWork work =
@@ -85,6 +93,7 @@ void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
     max_slice_work.deletions = std::max(max_slice_work.deletions, work.deletions);
     max_slice_work.relax_steps = std::max(max_slice_work.relax_steps, work.relax_steps);
     const std::size_t did = work.deletions + work.relax_steps;
+    mass_stale = mass_stale || did > 0;
     if (sculpt.mass->has_changes()) {
       sculpt.field->publish(*sculpt.mass, force_done, feed != nullptr ? &published : nullptr);
     }
@@ -94,16 +103,26 @@ void relax_loop(RealtimeSculpt& sculpt, const std::atomic<bool>& force_done,
     }
     counters.deleted.store(sculpt.mass->work().deleted_voxels, std::memory_order_relaxed);
     counters.relaxed.store(sculpt.mass->work().relaxed_voxels, std::memory_order_relaxed);
-    if (Clock::now() - last_mass > std::chrono::milliseconds(50)) {
+    // The exact mass (a pass over the whole grid) is measured every ~50 ms while the grid
+    // changes, and once more when it stops: never while nothing moves.
+    const bool idle = did == 0 && !sculpt.mass->has_changes() &&
+                      (feed == nullptr || feed->voxels.drained_backlog());
+    if (mass_stale && (idle || Clock::now() - last_mass > std::chrono::milliseconds(50))) {
       counters.mass_units.store(sculpt.mass->total_mass_units(), std::memory_order_relaxed);
       last_mass = Clock::now();
+      mass_stale = false;
     }
     if (did > 0) {
       slice_start_ns.push_back(ns_between(start, slice_begin));
       slice_ns.push_back(ns_between(slice_begin, Clock::now()));
     }
     if (finishing) break;
-    if (did == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    if (idle) {
+      sculpt.channel->wait_for_arrival(arrivals);
+    } else if (did == 0) {
+      // Waiting on the renderer's queue or the reader's buffer switch: poll gently.
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
   }
   cpu_s = thread_cpu_s() - cpu_start;
 }
@@ -151,6 +170,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
   }
   engine::ToolForceState state =
       sculpt != nullptr ? model.make_state(sculpt->field->buffer(1)) : model.make_state();
+  ForceRamp ramp(limits, device.rate_hz());
   std::uint64_t plastic_events = 0;
   std::size_t nonfinite_forces = 0;
   std::size_t max_queue_depth = 0;
@@ -191,7 +211,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       if (hooks.before_tick) hooks.before_tick(tick);
       TickRecord& row = rows[tick];
       if (sculpt != nullptr) state.read_from(sculpt->field->acquire_for_reading());
-      const bool nonfinite = run_force_stage(model, device, tick, limits, state,
+      const bool nonfinite = run_force_stage(model, device, tick, limits, state, ramp,
                                              sculpt != nullptr ? sculpt->channel : nullptr, row);
       nonfinite_forces += nonfinite ? 1 : 0;
       const auto end = Clock::now();
@@ -210,10 +230,12 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       row.start_ns = ns_between(start, begin);
       row.compute_ns = ns_between(begin, end);
       if (row.start_ns + row.compute_ns > row.scheduled_ns + watchdog_ns) {
-        // Too late to be the force for this instant: send nothing rather than a stale push.
-        row.force_n = Vec3d::Zero();
+        // A stall: this tick's force is late but fresh and finite, so it is sent as
+        // computed (zeroing it would be a step). From the next tick on the ramp takes the
+        // force down to zero and back in, at the ramp-in's slope.
         row.watchdog = 1;
         ++watchdog_trips;
+        ramp.trip();
       }
       if (feed != nullptr) {
         feed->tool.publish(RenderToolState{row.tool_position_mm, state.displacement_mm,
@@ -240,6 +262,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
       }
     }
     force_done.store(true, std::memory_order_release);
+    if (sculpt != nullptr) sculpt->channel->wake();  // an idle relaxation thread finishes
   });
   std::thread relax_thread;
   if (sculpt != nullptr) {
@@ -323,6 +346,7 @@ ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDe
     timing->lateness = duration_stats(lateness_us);
     timing->missed_deadlines = missed;
     timing->watchdog_trips = watchdog_trips;
+    timing->watchdog_ramped_ticks = ramp.reduced_ticks();
     timing->stalled_ticks = stalled;
     timing->force_cpu_s = force_cpu_s;
     timing->force_involuntary_switches = force_switches;

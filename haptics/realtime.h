@@ -11,7 +11,8 @@
 //                    max_deletions_per_slice deletions, then at most relax_voxels_per_slice
 //                    relaxation steps), each followed by the publication of changed voxels
 //                    into the back buffer of a DoubleBufferedField; exact mass measured
-//                    every ~50 ms.
+//                    every ~50 ms while the grid changes. With no work it sleeps until the
+//                    force thread pushes a change (SurfaceChangeChannel::wait_for_arrival).
 //   calling thread   appends finished rows to the session (~10 times a second) and
 //                    reports progress.
 
@@ -47,8 +48,9 @@ struct TimingSummary {
   double rate_hz = 0;  // target
   // Force thread. Lateness = actual start - scheduled start of a tick.
   DurationStats lateness;
-  std::size_t missed_deadlines = 0;  // ticks that ended after the next tick's deadline
-  std::size_t watchdog_trips = 0;    // ticks whose force was zeroed for overrunning
+  std::size_t missed_deadlines = 0;         // ticks that ended after the next tick's deadline
+  std::size_t watchdog_trips = 0;           // ticks that overran the watchdog (each starts a ramp)
+  std::uint64_t watchdog_ramped_ticks = 0;  // ticks sent ramped down (factor < 1) by trips
   double achieved_rate_hz = 0;
   double wall_time_s = 0;
   double force_cpu_s = 0;               // force thread CPU time over the loop
@@ -86,8 +88,9 @@ struct ForceThreadHooks {
 
 struct RealtimeOptions {
   SchedulerOptions scheduler;
-  /// A tick that ends more than this many periods after its deadline sends zero force
-  /// (the device must never get a stale force) and counts a watchdog trip.
+  /// A tick that ends more than this many periods after its deadline counts a watchdog
+  /// trip: its own (late but fresh) force is sent, and from the next tick on the force is
+  /// ramped down to zero and back in at the ramp-in's slope (ForceRamp), never stepped.
   double watchdog_periods = 1.0;
   ForceThreadHooks hooks;
   /// With a loop, a third thread renders: it is fed the force thread's tool pose and the

@@ -13,13 +13,56 @@ Vec3d safe_force(const Vec3d& raw_n, double ramp, const DeviceLimits& limits, bo
   *clamped = false;
   *nonfinite = !raw_n.allFinite();
   if (*nonfinite) return Vec3d::Zero();
-  Vec3d force = std::clamp(ramp, 0.0, 1.0) * raw_n;
+  Vec3d force = raw_n;
   const double magnitude = force.norm();
   if (magnitude > limits.max_force_n) {
     force *= limits.max_force_n / magnitude;
     *clamped = true;
   }
-  return force;
+  return std::clamp(ramp, 0.0, 1.0) * force;
+}
+
+ForceRamp::ForceRamp(const DeviceLimits& limits, double rate_hz) {
+  const double steps = limits.ramp_in_s * rate_hz;
+  if (std::isfinite(steps) && steps > 0.0) {
+    steps_ = steps;
+    top_ = static_cast<std::int64_t>(std::ceil(steps));
+  }
+}
+
+double ForceRamp::factor() const {
+  if (level_ < 0) return 0.0;
+  if (steps_ == 0.0) return 1.0;
+  return std::min(1.0, static_cast<double>(level_) / steps_);
+}
+
+void ForceRamp::trip() {
+  ++trips_;
+  if (steps_ == 0.0) return;  // no ramp: nothing to fall by
+  falling_ = true;
+  recovering_ = true;
+}
+
+double ForceRamp::next() {
+  if (steps_ == 0.0) {
+    level_ = 0;
+    return 1.0;
+  }
+  if (falling_) {
+    level_ = std::max<std::int64_t>(0, level_ - 1);
+    if (level_ == 0) falling_ = false;  // at zero: rise from the next tick
+  } else {
+    level_ = std::min(level_ + 1, top_);
+  }
+  const double f = factor();
+  if (recovering_) {
+    if (f < 1.0) {
+      ++reduced_ticks_;
+    } else {
+      recovering_ = false;
+    }
+  }
+  return f;
 }
 
 double percentile(std::vector<double> values, double pct) {
@@ -33,17 +76,16 @@ double percentile(std::vector<double> values, double pct) {
 
 bool run_force_stage(const engine::ToolForceModel& model, const TraceDevice& device,
                      std::size_t tick, const DeviceLimits& limits, engine::ToolForceState& state,
-                     SurfaceChangeChannel* channel, TickRecord& row) {
-  const double t0 = device.time_s(0);
+                     ForceRamp& ramp, SurfaceChangeChannel* channel, TickRecord& row) {
   row.time_s = device.time_s(tick);
   row.device_position_mm = device.device_position_mm(tick);
   row.tool_position_mm = device.tool_position_mm(tick);
   row.holding = device.holding(tick) ? 1 : 0;
   model.step(row.tool_position_mm, state);
-  const double ramp = limits.ramp_in_s > 0.0 ? (row.time_s - t0) / limits.ramp_in_s : 1.0;
+  row.force_scale = ramp.next();
   bool clamped = false;
   bool nonfinite = false;
-  row.force_n = safe_force(state.force_n, ramp, limits, &clamped, &nonfinite);
+  row.force_n = safe_force(state.force_n, row.force_scale, limits, &clamped, &nonfinite);
   row.clamped = clamped ? 1 : 0;
   row.displacement_mm = state.displacement_mm;
   row.contact_area_mm2 = state.contact.contact_area_mm2;
@@ -118,6 +160,7 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
   summary.duration_s = device.time_s(summary.ticks - 1) - t0;
 
   engine::ToolForceState state = model.make_state();
+  ForceRamp ramp(limits, device.rate_hz());
   SculptSummary sculpted;
   std::int64_t mass_units = 0;
   if (sculpt != nullptr) {
@@ -136,7 +179,7 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
     row.scheduled_ns = static_cast<std::int64_t>(std::llround(1e9 * (device.time_s(tick) - t0)));
     row.start_ns = row.scheduled_ns;
     const auto start = Clock::now();
-    const bool nonfinite = run_force_stage(model, device, tick, limits, state,
+    const bool nonfinite = run_force_stage(model, device, tick, limits, state, ramp,
                                            sculpt != nullptr ? sculpt->channel : nullptr, row);
     const auto end = Clock::now();
     if (sculpt != nullptr) {

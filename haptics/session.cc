@@ -69,6 +69,7 @@ SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
   ds_.device_position_mm = create_column(file_, "device_position_mm", H5T_IEEE_F64LE, 3, "mm");
   ds_.tool_position_mm = create_column(file_, "tool_position_mm", H5T_IEEE_F64LE, 3, "mm");
   ds_.force_n = create_column(file_, "force_n", H5T_IEEE_F64LE, 3, "N");
+  ds_.force_scale = create_column(file_, "force_scale", H5T_IEEE_F64LE, 1, "1");
   ds_.displacement_mm = create_column(file_, "displacement_mm", H5T_IEEE_F64LE, 3, "mm");
   ds_.contact_area_mm2 = create_column(file_, "contact_area_mm2", H5T_IEEE_F64LE, 1, "mm^2");
   ds_.contact = create_column(file_, "contact", H5T_STD_U8LE, 1, nullptr);
@@ -108,27 +109,17 @@ SessionWriter::~SessionWriter() {
 }
 
 void SessionWriter::close_datasets() {
-  for (hid_t d : {ds_.time_s,
-                  ds_.device_position_mm,
-                  ds_.tool_position_mm,
-                  ds_.force_n,
-                  ds_.displacement_mm,
-                  ds_.contact_area_mm2,
-                  ds_.contact,
-                  ds_.holding,
-                  ds_.clamped,
-                  ds_.compute_ns,
-                  ds_.strain,
-                  ds_.stress_pa,
-                  ds_.zone,
-                  ds_.plastic_event,
-                  ds_.queue_depth,
-                  ds_.deleted_voxels,
-                  ds_.relaxed_voxels,
-                  ds_.total_mass_units,
-                  ds_.scheduled_ns,
-                  ds_.start_ns,
-                  ds_.lateness_ns,
+  for (hid_t d : {ds_.time_s,           ds_.device_position_mm,
+                  ds_.tool_position_mm, ds_.force_n,
+                  ds_.force_scale,      ds_.displacement_mm,
+                  ds_.contact_area_mm2, ds_.contact,
+                  ds_.holding,          ds_.clamped,
+                  ds_.compute_ns,       ds_.strain,
+                  ds_.stress_pa,        ds_.zone,
+                  ds_.plastic_event,    ds_.queue_depth,
+                  ds_.deleted_voxels,   ds_.relaxed_voxels,
+                  ds_.total_mass_units, ds_.scheduled_ns,
+                  ds_.start_ns,         ds_.lateness_ns,
                   ds_.watchdog}) {
     H5Dclose(d);
   }
@@ -211,6 +202,7 @@ void SessionWriter::flush_rows() {
   vector_column(ds_.device_position_mm, [](const TickRecord& r) { return r.device_position_mm; });
   vector_column(ds_.tool_position_mm, [](const TickRecord& r) { return r.tool_position_mm; });
   vector_column(ds_.force_n, [](const TickRecord& r) { return r.force_n; });
+  scalar_column(ds_.force_scale, [](const TickRecord& r) { return r.force_scale; });
   vector_column(ds_.displacement_mm, [](const TickRecord& r) { return r.displacement_mm; });
   scalar_column(ds_.contact_area_mm2, [](const TickRecord& r) { return r.contact_area_mm2; });
   byte_column(ds_.contact, [](const TickRecord& r) { return r.contact; });

@@ -22,7 +22,8 @@ struct TickRecord {
   double time_s = 0.0;
   Vec3d device_position_mm = Vec3d::Zero();  // trace position (device space, resampled)
   Vec3d tool_position_mm = Vec3d::Zero();    // tool centre in volume space
-  Vec3d force_n = Vec3d::Zero();             // force sent (finite, ramped, clamped)
+  Vec3d force_n = Vec3d::Zero();             // force sent (finite, clamped, ramped)
+  double force_scale = 0.0;                  // the ramp factor it was sent with (ForceRamp)
   Vec3d displacement_mm = Vec3d::Zero();     // u = x_n - x0 of the elastic model
   double contact_area_mm2 = 0.0;
   std::uint8_t contact = 0;
@@ -31,7 +32,7 @@ struct TickRecord {
   std::int64_t compute_ns = 0;
   std::int64_t scheduled_ns = 0;  // deadline of the tick, from the start of the run
   std::int64_t start_ns = 0;      // when its computation started (lockstep: = scheduled)
-  std::uint8_t watchdog = 0;      // realtime: force zeroed because the tick overran
+  std::uint8_t watchdog = 0;      // realtime: the tick overran; the force ramps down next
   // Plasticity (zeros when off).
   double strain = 0.0;             // total strain of the contact
   double stress_measure_pa = 0.0;  // s = E |u| / L
@@ -85,7 +86,7 @@ class SessionWriter {
     hid_t time_s, device_position_mm, tool_position_mm, force_n, displacement_mm, contact_area_mm2,
         contact, holding, clamped, compute_ns, strain, stress_pa, zone, plastic_event, queue_depth,
         deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns, lateness_ns,
-        watchdog;
+        watchdog, force_scale;
   } ds_{};
   std::vector<TickRecord> buffer_;
   std::size_t rows_written_ = 0;

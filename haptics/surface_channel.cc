@@ -8,11 +8,15 @@ bool SurfaceChangeChannel::flush() {
   if (!pending_valid_) return true;
   if (!queue_.try_push(pending_)) return false;
   pending_valid_ = false;
+  wake();
   return true;
 }
 
 bool SurfaceChangeChannel::push(const engine::SurfaceChange& change) {
-  if (flush() && queue_.try_push(change)) return true;
+  if (flush() && queue_.try_push(change)) {
+    wake();
+    return true;
+  }
   overflows_.fetch_add(1, std::memory_order_relaxed);
   if (!pending_valid_) {
     pending_ = change;

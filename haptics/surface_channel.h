@@ -7,6 +7,11 @@
 // position to the newest (a capsule, which covers every sphere along a straight path), so
 // no change is lost; the pending change goes out with the next push that finds room, or
 // with flush(). Overflows and merges are counted.
+//
+// An idle consumer sleeps in wait_for_arrival() instead of polling: every change that
+// enters the queue bumps an arrival counter and notifies it (C++20 atomic wait/notify: on
+// Linux a futex; the producer never blocks, and pays a wake-up system call only when the
+// consumer is asleep, once per idle-to-busy transition).
 
 #include <atomic_queue/atomic_queue.h>
 
@@ -33,12 +38,27 @@ class SurfaceChangeChannel {
   std::uint64_t overflows() const { return overflows_.load(std::memory_order_relaxed); }
   bool has_pending() const { return pending_valid_; }
 
+  /// Changes that entered the queue so far (wraps around; compare for equality only).
+  std::uint32_t arrivals() const { return arrivals_.load(std::memory_order_acquire); }
+  /// Consumer side: sleeps while arrivals() == seen. Read `seen` before finding the queue
+  /// empty, so a change pushed in between is never slept through.
+  void wait_for_arrival(std::uint32_t seen) const {
+    arrivals_.wait(seen, std::memory_order_acquire);
+  }
+  /// Wakes a consumer asleep in wait_for_arrival() (pushes do this; also for shutdown).
+  /// Never blocks.
+  void wake() {
+    arrivals_.fetch_add(1, std::memory_order_release);
+    arrivals_.notify_one();
+  }
+
  private:
   atomic_queue::AtomicQueue2<engine::SurfaceChange, kCapacity, true, true, false, true> queue_;
   // Producer-only state.
   bool pending_valid_ = false;
   engine::SurfaceChange pending_;
   std::atomic<std::uint64_t> overflows_{0};
+  std::atomic<std::uint32_t> arrivals_{0};
 };
 
 }  // namespace hapvox::haptics

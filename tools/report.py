@@ -73,7 +73,7 @@ def lateness_plot(f, out_dir, title):
     watchdog = f["timing/watchdog"][:] if "timing/watchdog" in f else None
     if watchdog is not None and watchdog.any():
         hit = watchdog.astype(bool)
-        ax_t.plot((t - t[0])[hit], lateness_us[hit], "rx", label="watchdog: zero force")
+        ax_t.plot((t - t[0])[hit], lateness_us[hit], "rx", label="watchdog trip (force ramped down)")
         ax_t.legend(fontsize=8)
     ax_t.set_yscale("symlog", linthresh=1.0)
     ax_t.set_xlabel("time (s)")

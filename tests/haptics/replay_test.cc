@@ -41,9 +41,13 @@ TEST(Replay, SafeForceClampsRampsAndZeroesNonFinite) {
   EXPECT_TRUE(clamped);
   EXPECT_NEAR(f.norm(), 2.0, 1e-12);
   EXPECT_NEAR(f.normalized().dot(big.normalized()), 1.0, 1e-12);  // direction kept
+  // Clamped, then ramped: a quarter of the clamped force, not the raw one clamped.
   f = safe_force(big, 0.25, limits, &clamped, &nonfinite);
+  EXPECT_TRUE(clamped);
+  EXPECT_NEAR(f.norm(), 0.25 * 2.0, 1e-12);
+  f = safe_force(0.1 * big, 0.25, limits, &clamped, &nonfinite);
   EXPECT_FALSE(clamped);
-  EXPECT_EQ(f, 0.25 * big);
+  EXPECT_EQ(f, 0.25 * (0.1 * big));
   f = safe_force(Vec3d(NAN, 0, 0), 1.0, limits, &clamped, &nonfinite);
   EXPECT_TRUE(nonfinite);
   EXPECT_EQ(f, Vec3d::Zero());
@@ -83,6 +87,140 @@ TEST(Replay, ForcesAreFiniteClampedAndRampedIn) {
   }
   EXPECT_GT(summary.clamped_ticks, 0u);
   EXPECT_NEAR(summary.peak_force_n, 1.5, 1e-12);
+}
+
+// A press from `start_depth_mm` below the 64^3 block's face (negative: above it) to
+// `end_depth_mm`, at 20 mm/s, then held still for `hold_s`: the 8 mm tool's centre sits
+// radius - depth above the face at z = 31.5.
+TraceDevice press_to_depth(double start_depth_mm, double end_depth_mm, double hold_s) {
+  TraceMakeOptions make;
+  make.shape = TraceShape::kPress;
+  make.start_mm = Vec3d(32.2, 31.7, 31.5 + 4.0 - start_depth_mm);
+  make.travel_mm = end_depth_mm - start_depth_mm;
+  make.speed_mm_s = 20.0;
+  make.hold_s = hold_s;
+  return TraceDevice(resample(make_trace(make)), DeviceTransform{});
+}
+
+// Issue 8 point 5: a tool already in the material at tick 0 gets no force step. The sent
+// force is the unramped force (the same replay with --ramp-in-s 0) times k / (ramp * rate)
+// at tick k: zero at the first tick, half at ramp / 2, all of it from the ramp's end on.
+TEST(Replay, ToolStartingInContactFeelsTheForceRampInLinearly) {
+  const engine::DensityField field = engine::generate_volume("block:dims=64");
+  const engine::ToolForceModel model(field, small_tool());
+  const TraceDevice device = press_to_depth(1.0, 4.0, 0.2);
+  const std::string dir = testing::scratch_dir();
+  DeviceLimits ramped;
+  ramped.ramp_in_s = 0.1;
+  DeviceLimits unramped = ramped;
+  unramped.ramp_in_s = 0.0;
+  for (const auto& [name, limits] : {std::pair{"/ramped.h5", ramped}, {"/unramped.h5", unramped}}) {
+    SessionWriter session(dir + name);
+    replay_lockstep(model, device, limits, &session);
+    session.close();
+  }
+  const auto contact = read_session_column(dir + "/ramped.h5", "/contact");
+  const auto force = read_session_column(dir + "/ramped.h5", "/force_n");
+  const auto full = read_session_column(dir + "/unramped.h5", "/force_n");
+  ASSERT_EQ(contact[0], 1.0);  // pressed in from the first tick
+  const auto at = [](const std::vector<double>& f, std::size_t k) {
+    return Vec3d(f[3 * k], f[3 * k + 1], f[3 * k + 2]);
+  };
+  const std::size_t ramp_ticks = 100;  // 0.1 s at 1 kHz
+  EXPECT_EQ(at(force, 0).norm(), 0.0);
+  ASSERT_GT(at(full, ramp_ticks / 2).norm(), 0.2);  // the press is felt by then
+  EXPECT_NEAR(at(force, ramp_ticks / 2).norm(), 0.5 * at(full, ramp_ticks / 2).norm(), 1e-9);
+  for (std::size_t k = 0; k < contact.size(); ++k) {
+    const double share = std::min(1.0, static_cast<double>(k) / ramp_ticks);
+    ASSERT_LE((at(force, k) - share * at(full, k)).norm(), 1e-12 * (1.0 + at(full, k).norm()))
+        << "tick " << k;
+  }
+  const auto scale = read_session_column(dir + "/ramped.h5", "/force_scale");
+  EXPECT_EQ(scale[0], 0.0);
+  EXPECT_DOUBLE_EQ(scale[ramp_ticks / 2], 0.5);
+  EXPECT_EQ(scale[ramp_ticks], 1.0);
+}
+
+// Issue 8 point 4, in the force stage both loops share: after a watchdog trip the force
+// falls to zero and rises back at the ramp's slope. With the tool held still in the
+// material the model's own force does not change, so every step of the sent force is the
+// ramp's: at most |F| / (ramp * rate), never the jump to zero a plain cut would make.
+TEST(Replay, AWatchdogTripRampsTheForceDownAndBackWithoutAStep) {
+  const engine::DensityField field = engine::generate_volume("block:dims=64");
+  const engine::ToolForceModel model(field, small_tool());
+  const TraceDevice device = press_to_depth(-1.0, 1.0, 1.0);  // pressed and held from 0.1 s
+  const DeviceLimits limits;                                  // 10 N, 0.1 s ramp
+  engine::ToolForceState state = model.make_state();
+  ForceRamp ramp(limits, device.rate_hz());
+  EXPECT_DOUBLE_EQ(ramp.step(), 0.01);
+  const std::size_t trip = 600, steps = 100;
+  std::vector<Vec3d> sent, model_force;  // model_force: clamped, not ramped
+  std::vector<double> scale;
+  for (std::size_t tick = 0; tick < device.tick_count(); ++tick) {
+    TickRecord row;
+    run_force_stage(model, device, tick, limits, state, ramp, nullptr, row);
+    sent.push_back(row.force_n);
+    scale.push_back(row.force_scale);
+    bool clamped = false, nonfinite = false;
+    model_force.push_back(safe_force(state.force_n, 1.0, limits, &clamped, &nonfinite));
+    if (tick == trip) ramp.trip();  // as the realtime loop does after an overrun
+  }
+  ASSERT_GT(sent.size(), trip + 2 * steps + 10);
+  const Vec3d held = model_force[trip];
+  ASSERT_GT(held.norm(), 0.5);
+  // The tripping tick sends its own force; then down to zero and back, one step a tick.
+  EXPECT_EQ(sent[trip], held);
+  for (std::size_t k = 1; k <= steps; ++k) {
+    ASSERT_NEAR(scale[trip + k], 1.0 - 0.01 * k, 1e-12) << k;
+    ASSERT_NEAR(scale[trip + steps + k], 0.01 * k, 1e-12) << k;
+  }
+  EXPECT_EQ(sent[trip + steps], Vec3d::Zero());
+  EXPECT_EQ(sent[trip + 2 * steps], held);
+  EXPECT_EQ(ramp.trips(), 1u);
+  EXPECT_EQ(ramp.reduced_ticks(), 2 * steps - 1);
+  // The bound, on every tick of the run: the ramp's step of the device maximum plus the
+  // model's own change. Around the trip the model is still, and the steps are the ramp's.
+  double largest = 0.0;
+  for (std::size_t k = 1; k < sent.size(); ++k) {
+    const double step = (sent[k] - sent[k - 1]).norm();
+    ASSERT_LE(step, limits.max_force_n * ramp.step() +
+                        (model_force[k] - model_force[k - 1]).norm() + 1e-12)
+        << "tick " << k;
+    if (k > trip - 50 && k < trip + 2 * steps + 50) {
+      ASSERT_EQ(model_force[k], held) << k;
+      largest = std::max(largest, step);
+    }
+  }
+  EXPECT_LE(largest, held.norm() * 0.01 + 1e-12);
+  EXPECT_GE(largest, held.norm() * 0.01 * 0.999);
+}
+
+TEST(Replay, ForceRampRisesFallsOnATripAndTurnsBackOnASecondOne) {
+  DeviceLimits limits;
+  limits.ramp_in_s = 0.0025;  // 2.5 ticks at 1 kHz: a fractional ramp
+  ForceRamp ramp(limits, 1000.0);
+  EXPECT_EQ(ramp.factor(), 0.0);
+  std::vector<double> f;
+  for (int i = 0; i < 5; ++i) f.push_back(ramp.next());
+  EXPECT_EQ(f, (std::vector<double>{0.0, 0.4, 0.8, 1.0, 1.0}));
+  ramp.trip();
+  EXPECT_NEAR(ramp.next(), 0.8, 1e-12);  // from the top, one step of at most 0.4
+  EXPECT_NEAR(ramp.next(), 0.4, 1e-12);
+  EXPECT_EQ(ramp.next(), 0.0);
+  EXPECT_NEAR(ramp.next(), 0.4, 1e-12);
+  ramp.trip();  // while rising: falls again from where it is
+  EXPECT_EQ(ramp.next(), 0.0);
+  EXPECT_NEAR(ramp.next(), 0.4, 1e-12);
+  EXPECT_NEAR(ramp.next(), 0.8, 1e-12);
+  EXPECT_EQ(ramp.next(), 1.0);
+  EXPECT_EQ(ramp.trips(), 2u);
+  EXPECT_EQ(ramp.reduced_ticks(), 7u);
+  // No ramp (--ramp-in-s 0): always 1, trips only counted.
+  ForceRamp none(DeviceLimits{10.0, 0.0}, 1000.0);
+  EXPECT_EQ(none.next(), 1.0);
+  none.trip();
+  EXPECT_EQ(none.next(), 1.0);
+  EXPECT_EQ(none.trips(), 1u);
 }
 
 TEST(Replay, RepeatedReplaysAreBitIdentical) {
