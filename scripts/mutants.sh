@@ -16,7 +16,7 @@ mutants=(
   "relaxation takes the lowest density first|engine/relax.h|if (units != other.units) return units < other.units;|if (units != other.units) return units > other.units;|engine_tests|Relax.*"
   "deletion in whole voxels (centre inside: emptied)|engine/relax.cc|const auto room = static_cast<std::int32_t>(std::floor(normal_units_ * (1.0 - covered)));|const std::int32_t room = covered >= 0.5 ? 0 : units;|haptics_tests|SculptForce.*"
   "slip bound doubled|engine/tool_force.cc|const double t_max = ratio * u_normal;|const double t_max = 2.0 * ratio * u_normal;|engine_tests|ContactLaw.*:ToolForce.*"
-  "ramp-in not applied by the force stage|haptics/replay.cc|const double ramp = ramp_factor(|const double ramp = 1.0; (void)ramp_factor(|haptics_tests|Replay.*:Realtime.*"
+  "ramp-in not applied by the force stage|haptics/replay.cc|row.force_scale = ramp.next();|row.force_scale = 1.0; (void)ramp.next();|haptics_tests|Replay.*:Realtime.*"
 )
 
 for entry in "${mutants[@]}"; do
