@@ -1,6 +1,6 @@
 // hapvox bench force: force-computation rates for tool diameters 16/32/64 voxels, ours
 // beside a naive per-voxel-accessor baseline in the same run and the seed's Table 1.
-// hapvox bench plastic: deletion rates and relaxation after a press.
+// hapvox bench plastic (tools/cmd_bench_plastic.cc): deletion rates and relaxation.
 // hapvox bench table1 (or plain `hapvox bench`, same options): both, one table with the
 // seeds' figures and ratios, written as CSV and JSON with a description of the machine.
 // Timing comes from Google Benchmark (repetitions, medians); this file only sets up the
@@ -8,12 +8,10 @@
 
 #include <benchmark/benchmark.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -24,9 +22,9 @@
 #include <ctime>
 
 #include "engine/errors.h"
-#include "engine/relax.h"
 #include "engine/version.h"
 #include "haptics/session.h"
+#include "tools/bench.h"
 #include "tools/cli.h"
 
 namespace hapvox::cli {
@@ -48,94 +46,6 @@ double seed_force_rate_hz(int size, int diameter) {
   const auto it = table.find({size, diameter});
   return it == table.end() ? NAN : it->second;
 }
-
-std::vector<int> parse_int_list(const std::string& text, const std::string& flag) {
-  std::vector<int> values;
-  std::stringstream in(text);
-  std::string part;
-  while (std::getline(in, part, ',')) {
-    try {
-      std::size_t used = 0;
-      const int v = std::stoi(part, &used);
-      if (used != part.size() || v <= 0) throw std::invalid_argument(part);
-      values.push_back(v);
-    } catch (const std::exception&) {
-      throw InputError(flag, "expected positive integers separated by commas, got '" + text + "'");
-    }
-  }
-  if (values.empty()) throw InputError(flag, "empty list");
-  return values;
-}
-
-// Collects the median of each benchmark's repetitions.
-class MedianCollector : public benchmark::BenchmarkReporter {
- public:
-  bool ReportContext(const Context&) override { return true; }
-  void ReportRuns(const std::vector<Run>& runs) override {
-    for (const Run& run : runs) {
-      // Adjusted real time is per iteration, in the run's time unit (ns here). With one
-      // repetition there is no median aggregate: the single run stands for it.
-      const std::string& name = run.run_name.function_name;
-      if (run.run_type == Run::RT_Aggregate && run.aggregate_name == "median") {
-        median_ns[name] = run.GetAdjustedRealTime();
-      } else if (run.run_type == Run::RT_Iteration && !median_ns.count(name)) {
-        median_ns[name] = run.GetAdjustedRealTime();
-      }
-    }
-  }
-  std::map<std::string, double> median_ns;
-};
-
-// Starts Google Benchmark once with our timing settings.
-void init_benchmark(double min_time_s, int repetitions) {
-  static bool initialized = false;
-  if (initialized) return;
-  initialized = true;
-  // Google Benchmark keeps pointers into argv: the strings must outlive the process.
-  static std::string min_time = "--benchmark_min_time=" + std::to_string(min_time_s);
-  static std::string reps = "--benchmark_repetitions=" + std::to_string(repetitions);
-  static std::string aggregates = "--benchmark_report_aggregates_only=true";
-  static std::string name = "hapvox-bench";
-  std::vector<char*> argv = {name.data(), min_time.data(), reps.data(), aggregates.data()};
-  int argc = static_cast<int>(argv.size());
-  benchmark::Initialize(&argc, argv.data());
-}
-
-using BenchFn = std::function<void(benchmark::State&)>;
-
-// Runs the named benchmarks in one go; median nanoseconds per iteration by name.
-std::map<std::string, double> measure(const std::vector<std::pair<std::string, BenchFn>>& fns) {
-  benchmark::ClearRegisteredBenchmarks();
-  for (const auto& [name, fn] : fns) {
-    benchmark::RegisterBenchmark(name.c_str(), fn)->Unit(benchmark::kNanosecond)->UseRealTime();
-  }
-  MedianCollector collector;
-  benchmark::RunSpecifiedBenchmarks(&collector);
-  benchmark::ClearRegisteredBenchmarks();
-  return collector.median_ns;
-}
-
-// A clay block filling the lower half of an n^3 volume of 1 mm voxels, stored as dense
-// leaves as a loaded scan would be.
-engine::DensityField make_half_block(int n) {
-  engine::initialize_openvdb();
-  auto grid = openvdb::FloatGrid::create(0.0f);
-  grid->tree().fill(openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(n - 1, n - 1, n / 2 - 1)),
-                    1.0f, true);
-  grid->tree().voxelizeActiveTiles();
-  return engine::DensityField(grid, Eigen::Vector3d::Ones(), Eigen::Vector3d::Zero(),
-                              Eigen::Vector3i::Constant(n));
-}
-
-// One line of the Table 1 reproduction.
-struct Table1Row {
-  std::string measure;  // "force", "deletion", "relaxation"
-  int volume = 0;       // edge length, voxels
-  int diameter = 0;     // tool diameter, voxels
-  std::string unit;     // "Hz", "voxels/s"
-  double ours = NAN, naive = NAN, seed = NAN;
-  std::string note;
-};
 
 struct Row {
   int size, diameter, samples;
@@ -220,169 +130,6 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
     std::filesystem::rename(f.csv + ".partial", f.csv);
     std::printf("\nwrote %s\n", f.csv.c_str());
   }
-  return table;
-}
-
-// The seed's deletion, voxel by voxel through tree-level reads and writes (no cached
-// accessor, no ordering): the baseline for MassGrid::apply_deletion. Same result.
-std::size_t naive_deletion(openvdb::Int32Grid& grid, const Eigen::Vector3d& c,
-                           const Eigen::Vector3d& dir, double radius) {
-  auto& tree = grid.tree();
-  std::size_t emptied = 0;
-  const int r = static_cast<int>(std::ceil(radius)) + 1;
-  for (int i = -r; i <= r; ++i) {
-    for (int j = -r; j <= r; ++j) {
-      for (int k = -r; k <= r; ++k) {
-        const openvdb::Coord v(static_cast<int>(std::floor(c.x())) + i,
-                               static_cast<int>(std::floor(c.y())) + j,
-                               static_cast<int>(std::floor(c.z())) + k);
-        const Eigen::Vector3d p(v.x(), v.y(), v.z());
-        if ((p - c).norm() >= radius) continue;
-        const std::int32_t units = tree.getValue(v);
-        if (units <= 0) continue;
-        Eigen::Vector3d q = p;
-        openvdb::Coord target = v;
-        do {
-          q += 0.5 * dir;
-          target = openvdb::Coord(static_cast<int>(std::lround(q.x())),
-                                  static_cast<int>(std::lround(q.y())),
-                                  static_cast<int>(std::lround(q.z())));
-        } while ((Eigen::Vector3d(target.x(), target.y(), target.z()) - c).norm() < radius);
-        tree.setValueOn(target, tree.getValue(target) + units);
-        tree.setValueOff(v, 0);
-        ++emptied;
-      }
-    }
-  }
-  return emptied;
-}
-
-struct PlasticBenchFlags {
-  int size = 512;
-  std::string diameters = "16,32,64";
-  double min_time_s = 0.2;
-  int repetitions = 3;
-  double max_relax_s = 30.0;
-};
-
-std::vector<Table1Row> run_bench_plastic(const PlasticBenchFlags& f) {
-  std::vector<Table1Row> table;
-  const std::vector<int> diameters = parse_int_list(f.diameters, "--diameters");
-  if (f.size < 64) throw InputError("--size", "must be at least 64");
-  if (!(f.min_time_s > 0.0)) throw InputError("--min-time-s", "must be positive");
-  if (f.repetitions < 1) throw InputError("--repetitions", "must be at least 1");
-  init_benchmark(f.min_time_s, f.repetitions);
-  const int n = f.size;
-  const engine::DensityField field = make_half_block(n);
-  const double face = 0.5 * n - 0.5;
-  std::printf(
-      "plastic deletion and relaxation, %d^3 clay block (half full), 1 mm voxels, one core\n", n);
-  std::printf(
-      "deletion: one surface change per iteration, the tool ploughing 0.05 mm per event\n\n");
-  std::printf("%9s %12s %12s %10s %10s %9s\n", "diameter", "ours Hz", "naive Hz", "ours/naive",
-              "seed Hz", "ours/seed");
-  const std::map<int, double> seed_deletion_hz = {{16, 2000}, {32, 250}, {64, 24}};
-  for (int d : diameters) {
-    const double radius = 0.5 * d;
-    // Each benchmark ploughs its own copy so both see the same material.
-    auto ours = [&](benchmark::State& st) {
-      engine::MassGrid mass(field);
-      engine::SurfaceChange change;
-      change.direction = Eigen::Vector3d(0.0, 0.0, -1.0);
-      change.radius_mm = radius;
-      std::vector<openvdb::Coord> changes;
-      double x = radius + 2.0;
-      for (auto _ : st) {
-        change.from_mm = change.position_mm = Eigen::Vector3d(x, 0.5 * n, face + radius - 0.25 * d);
-        benchmark::DoNotOptimize(mass.apply_deletion(change));
-        mass.take_changes(changes);  // as the publisher does; the naive side keeps no list
-        x += 0.05;
-      }
-    };
-    auto naive = [&](benchmark::State& st) {
-      engine::MassGrid mass(field);
-      openvdb::Int32Grid::Ptr grid = mass.grid().deepCopy();
-      double x = radius + 2.0;
-      for (auto _ : st) {
-        benchmark::DoNotOptimize(
-            naive_deletion(*grid, Eigen::Vector3d(x, 0.5 * n, face + radius - 0.25 * d),
-                           Eigen::Vector3d(0, 0, -1), radius));
-        x += 0.05;
-      }
-    };
-    auto median_ns = measure({{"ours", ours}, {"naive", naive}});
-    const double ours_hz = 1e9 / median_ns["ours"];
-    const double naive_hz = 1e9 / median_ns["naive"];
-    const double seed = seed_deletion_hz.count(d) ? seed_deletion_hz.at(d) : NAN;
-    table.push_back({"deletion", n, d, "Hz", ours_hz, naive_hz, seed, ""});
-    std::printf("%9d %12.0f %12.0f %9.1fx %10.0f %8.1fx\n", d, ours_hz, naive_hz,
-                ours_hz / naive_hz, seed, ours_hz / seed);
-    std::fflush(stdout);
-  }
-
-  // Relaxation: a diameter-32 press (the tool sunk 8 mm, deleted at once), then relax
-  // until settled, timed on the wall clock; our flow to room beside the paper's diffusion.
-  std::printf(
-      "\nrelaxation after a diameter-32 press 8 mm deep, until no voxel exceeds 1.02 "
-      "(seed: 217,000 voxels/s)\n");
-  std::printf("%-16s %9s %12s %12s %12s %14s %10s %12s %9s\n", "rule", "settled", "settle s",
-              "relaxed", "flow visits", "voxels/s", "mass", "seed vox/s", "ours/seed");
-  const std::int64_t mass_before = engine::MassGrid(field).total_mass_units();
-  Table1Row relax_row{"relaxation", n, 32, "voxels/s", NAN, NAN, 217000.0, ""};
-  Table1Row settle_row{"settle", n, 32, "s", NAN, NAN, NAN, ""};
-  for (const engine::RelaxRule rule :
-       {engine::RelaxRule::kFlowToRoom, engine::RelaxRule::kPaperDiffusion}) {
-    const bool ours = rule == engine::RelaxRule::kFlowToRoom;
-    // Ours settles in milliseconds: the median of several presses. The paper's rule runs
-    // once, until it settles or --max-relax-s.
-    const int runs = ours ? std::max(3, f.repetitions) : 1;
-    std::vector<double> settle_s, rate;
-    bool all_settled = true, exact = true;
-    std::size_t relaxed = 0, visits = 0;
-    for (int run = 0; run < runs; ++run) {
-      engine::RelaxOptions options;
-      options.rule = rule;
-      engine::MassGrid mass(field, options);
-      engine::SurfaceChange press;
-      press.direction = Eigen::Vector3d(0, 0, -1);
-      press.radius_mm = 16.0;
-      press.from_mm = Eigen::Vector3d(0.5 * n, 0.5 * n, face + 16.0);
-      press.position_mm = Eigen::Vector3d(0.5 * n, 0.5 * n, face + 16.0 - 8.0);
-      using Clock = std::chrono::steady_clock;
-      mass.apply_deletion(press);
-      const auto t1 = Clock::now();
-      std::vector<openvdb::Coord> changes;  // drained as a publisher would
-      const auto give_up = t1 + std::chrono::duration<double>(f.max_relax_s);
-      while (!mass.settled() && Clock::now() < give_up) {
-        mass.relax(100000);
-        mass.take_changes(changes);
-      }
-      const double seconds = std::chrono::duration<double>(Clock::now() - t1).count();
-      all_settled = all_settled && mass.settled();
-      exact = exact && mass.total_mass_units() == mass_before;
-      relaxed = mass.work().relaxed_voxels;
-      visits = mass.work().flow_visits;
-      settle_s.push_back(seconds);
-      // Voxels relaxed plus voxels the flow visited: every voxel the relaxation touched.
-      rate.push_back(static_cast<double>(relaxed + visits) / seconds);
-    }
-    const double median_s = haptics::percentile(settle_s, 50.0);
-    const double median_rate = haptics::percentile(rate, 50.0);
-    std::printf("%-16s %9s %12.4f %12zu %12zu %14.0f %10s %12.0f %8.1fx\n",
-                ours ? "ours (flow)" : "paper (diffuse)", all_settled ? "yes" : "NO", median_s,
-                relaxed, visits, median_rate, exact ? "exact" : "CHANGED", relax_row.seed,
-                median_rate / relax_row.seed);
-    std::fflush(stdout);
-    char note[160];
-    std::snprintf(note, sizeof note, "%s: %s after %.4f s", ours ? "ours" : "naive (paper rule)",
-                  all_settled ? "settled" : "not settled", median_s);
-    (ours ? relax_row.ours : relax_row.naive) = median_rate;
-    (ours ? settle_row.ours : settle_row.naive) = all_settled ? median_s : INFINITY;
-    relax_row.note += (relax_row.note.empty() ? "" : "; ") + std::string(note);
-  }
-  settle_row.note = relax_row.note;
-  table.push_back(relax_row);
-  table.push_back(settle_row);
   return table;
 }
 

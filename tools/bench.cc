@@ -1,0 +1,86 @@
+#include "tools/bench.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "engine/errors.h"
+
+namespace hapvox::cli {
+
+std::vector<int> parse_int_list(const std::string& text, const std::string& flag) {
+  std::vector<int> values;
+  std::stringstream in(text);
+  std::string part;
+  while (std::getline(in, part, ',')) {
+    try {
+      std::size_t used = 0;
+      const int v = std::stoi(part, &used);
+      if (used != part.size() || v <= 0) throw std::invalid_argument(part);
+      values.push_back(v);
+    } catch (const std::exception&) {
+      throw InputError(flag, "expected positive integers separated by commas, got '" + text + "'");
+    }
+  }
+  if (values.empty()) throw InputError(flag, "empty list");
+  return values;
+}
+
+namespace {
+
+// Collects the median of each benchmark's repetitions.
+class MedianCollector : public benchmark::BenchmarkReporter {
+ public:
+  bool ReportContext(const Context&) override { return true; }
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const Run& run : runs) {
+      // Adjusted real time is per iteration, in the run's time unit (ns here). With one
+      // repetition there is no median aggregate: the single run stands for it.
+      const std::string& name = run.run_name.function_name;
+      if (run.run_type == Run::RT_Aggregate && run.aggregate_name == "median") {
+        median_ns[name] = run.GetAdjustedRealTime();
+      } else if (run.run_type == Run::RT_Iteration && !median_ns.count(name)) {
+        median_ns[name] = run.GetAdjustedRealTime();
+      }
+    }
+  }
+  std::map<std::string, double> median_ns;
+};
+
+}  // namespace
+
+void init_benchmark(double min_time_s, int repetitions) {
+  static bool initialized = false;
+  if (initialized) return;
+  initialized = true;
+  // Google Benchmark keeps pointers into argv: the strings must outlive the process.
+  static std::string min_time = "--benchmark_min_time=" + std::to_string(min_time_s);
+  static std::string reps = "--benchmark_repetitions=" + std::to_string(repetitions);
+  static std::string aggregates = "--benchmark_report_aggregates_only=true";
+  static std::string name = "hapvox-bench";
+  std::vector<char*> argv = {name.data(), min_time.data(), reps.data(), aggregates.data()};
+  int argc = static_cast<int>(argv.size());
+  benchmark::Initialize(&argc, argv.data());
+}
+
+std::map<std::string, double> measure(const std::vector<std::pair<std::string, BenchFn>>& fns) {
+  benchmark::ClearRegisteredBenchmarks();
+  for (const auto& [name, fn] : fns) {
+    benchmark::RegisterBenchmark(name.c_str(), fn)->Unit(benchmark::kNanosecond)->UseRealTime();
+  }
+  MedianCollector collector;
+  benchmark::RunSpecifiedBenchmarks(&collector);
+  benchmark::ClearRegisteredBenchmarks();
+  return collector.median_ns;
+}
+
+engine::DensityField make_half_block(int n) {
+  engine::initialize_openvdb();
+  auto grid = openvdb::FloatGrid::create(0.0f);
+  grid->tree().fill(openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(n - 1, n - 1, n / 2 - 1)),
+                    1.0f, true);
+  grid->tree().voxelizeActiveTiles();
+  return engine::DensityField(grid, Eigen::Vector3d::Ones(), Eigen::Vector3d::Zero(),
+                              Eigen::Vector3i::Constant(n));
+}
+
+}  // namespace hapvox::cli

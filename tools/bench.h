@@ -1,0 +1,55 @@
+#pragma once
+// What the `hapvox bench` subcommands share: Google Benchmark set up once and read back as
+// medians, integer lists, the half-filled clay block they measure on, and the Table 1 row
+// they fill.
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <functional>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "engine/density_field.h"
+
+namespace hapvox::cli {
+
+/// One line of the Table 1 reproduction.
+struct Table1Row {
+  std::string measure;  // "force", "deletion", "relaxation", "flow-visits", "settle"
+  int volume = 0;       // edge length, voxels
+  int diameter = 0;     // tool diameter, voxels
+  std::string unit;     // "Hz", "voxels/s", "visits/s", "s"
+  double ours = NAN, naive = NAN, seed = NAN;  // NAN where there is none
+  std::string note;
+};
+
+/// Parses "16,32,64" (positive integers). Throws InputError(flag, ...).
+std::vector<int> parse_int_list(const std::string& text, const std::string& flag);
+
+/// Starts Google Benchmark once with these timing settings.
+void init_benchmark(double min_time_s, int repetitions);
+
+using BenchFn = std::function<void(benchmark::State&)>;
+/// Runs the named benchmarks in one go; median nanoseconds per iteration by name.
+std::map<std::string, double> measure(const std::vector<std::pair<std::string, BenchFn>>& fns);
+
+/// A clay block filling the lower half of an n^3 volume of 1 mm voxels, stored as dense
+/// leaves as a loaded scan would be.
+engine::DensityField make_half_block(int n);
+
+struct PlasticBenchFlags {
+  int size = 512;
+  std::string diameters = "16,32,64";
+  double min_time_s = 0.2;
+  int repetitions = 3;
+  double max_relax_s = 30.0;
+};
+
+/// `hapvox bench plastic`: deletion rates by diameter, then relaxation after a press
+/// (relaxed voxels/s and flow-to-room visits/s, settle time). Prints its tables.
+std::vector<Table1Row> run_bench_plastic(const PlasticBenchFlags& f);
+
+}  // namespace hapvox::cli
