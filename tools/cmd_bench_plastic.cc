@@ -17,12 +17,20 @@ namespace hapvox::cli {
 namespace {
 
 // The seed's deletion, voxel by voxel through tree-level reads and writes (no cached
-// accessor, no ordering): the baseline for MassGrid::apply_deletion. Same result.
+// accessor, no ordering, the whole bounding cube tested): the baseline for
+// MassGrid::apply_deletion, doing the same partial-volume work (1 mm voxels, normal
+// density 1): a voxel covered by a fraction f keeps at most (1 - f), the rest moves ahead.
 std::size_t naive_deletion(openvdb::Int32Grid& grid, const Eigen::Vector3d& c,
                            const Eigen::Vector3d& dir, double radius) {
   auto& tree = grid.tree();
+  auto coverage = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d r = p - c;
+    const double dist = r.norm();
+    const double width = dist > 0.0 ? r.cwiseAbs().sum() / dist : 1.0;
+    return std::clamp((radius - dist) / width + 0.5, 0.0, 1.0);
+  };
   std::size_t emptied = 0;
-  const int r = static_cast<int>(std::ceil(radius)) + 1;
+  const int r = static_cast<int>(std::ceil(radius)) + 2;
   for (int i = -r; i <= r; ++i) {
     for (int j = -r; j <= r; ++j) {
       for (int k = -r; k <= r; ++k) {
@@ -30,9 +38,12 @@ std::size_t naive_deletion(openvdb::Int32Grid& grid, const Eigen::Vector3d& c,
                                static_cast<int>(std::floor(c.y())) + j,
                                static_cast<int>(std::floor(c.z())) + k);
         const Eigen::Vector3d p(v.x(), v.y(), v.z());
-        if ((p - c).norm() >= radius) continue;
+        const double covered = coverage(p);
+        if (covered <= 0.0) continue;
         const std::int32_t units = tree.getValue(v);
-        if (units <= 0) continue;
+        const auto room =
+            static_cast<std::int32_t>(std::floor(engine::kNormalDensityUnits * (1.0 - covered)));
+        if (units <= room) continue;
         Eigen::Vector3d q = p;
         openvdb::Coord target = v;
         do {
@@ -40,9 +51,13 @@ std::size_t naive_deletion(openvdb::Int32Grid& grid, const Eigen::Vector3d& c,
           target = openvdb::Coord(static_cast<int>(std::lround(q.x())),
                                   static_cast<int>(std::lround(q.y())),
                                   static_cast<int>(std::lround(q.z())));
-        } while ((Eigen::Vector3d(target.x(), target.y(), target.z()) - c).norm() < radius);
-        tree.setValueOn(target, tree.getValue(target) + units);
-        tree.setValueOff(v, 0);
+        } while (coverage(Eigen::Vector3d(target.x(), target.y(), target.z())) > 0.0);
+        tree.setValueOn(target, tree.getValue(target) + units - room);
+        if (room > 0) {
+          tree.setValueOn(v, room);
+        } else {
+          tree.setValueOff(v, 0);
+        }
         ++emptied;
       }
     }
