@@ -1,7 +1,11 @@
 #include "tools/bench.h"
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <sstream>
+#include <system_error>
 
 #include "engine/errors.h"
 
@@ -81,6 +85,30 @@ engine::DensityField make_half_block(int n) {
   grid->tree().voxelizeActiveTiles();
   return engine::DensityField(grid, Eigen::Vector3d::Ones(), Eigen::Vector3d::Zero(),
                               Eigen::Vector3i::Constant(n));
+}
+
+std::string find_bundled(const std::string& path) {
+  namespace fs = std::filesystem;
+  const bool bundled = path.rfind("data/", 0) == 0 || path.rfind("traces/", 0) == 0;
+  std::error_code ec;
+  if (!bundled || fs::exists(path, ec)) return path;
+  std::vector<fs::path> roots;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    roots.push_back(exe.parent_path() / ".." / "..");                // build/tools/hapvox
+    roots.push_back(exe.parent_path() / ".." / "share" / "hapvox");  // prefix/bin/hapvox
+  }
+#ifdef HAPVOX_SOURCE_DIR
+  roots.emplace_back(HAPVOX_SOURCE_DIR);
+#endif
+#ifdef HAPVOX_SHARE_DIR
+  roots.emplace_back(HAPVOX_SHARE_DIR);
+#endif
+  for (const fs::path& root : roots) {
+    const fs::path candidate = root / path;
+    if (fs::is_regular_file(candidate, ec)) return candidate.lexically_normal().string();
+  }
+  return path;
 }
 
 }  // namespace hapvox::cli

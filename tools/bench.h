@@ -1,7 +1,7 @@
 #pragma once
 // What the `hapvox bench` subcommands share: Google Benchmark set up once and read back as
-// medians, integer lists, the half-filled clay block they measure on, and the Table 1 row
-// they fill.
+// medians, integer lists, the half-filled clay block they measure on, the Table 1 row they
+// fill, and where the bundled data is.
 
 #include <benchmark/benchmark.h>
 
@@ -39,6 +39,15 @@ std::map<std::string, double> measure(const std::vector<std::pair<std::string, B
 /// A clay block filling the lower half of an n^3 volume of 1 mm voxels, stored as dense
 /// leaves as a loaded scan would be.
 engine::DensityField make_half_block(int n);
+
+/// A bundled file named relative to the repository ("data/...", "traces/..."), found
+/// wherever hapvox runs from: as given when it exists from the current directory; else in
+/// the repository the executable was built in (build/tools/hapvox -> ../../, through
+/// /proc/self/exe), the installed share directory beside the executable (../share/hapvox),
+/// the source directory compiled in, and the install prefix's share directory. Anything
+/// else (absolute paths, generators, other names) is returned unchanged, as is a bundled
+/// name found nowhere (loading it then fails naming it).
+std::string find_bundled(const std::string& path);
 
 struct PlasticBenchFlags {
   int size = 512;

@@ -15,6 +15,7 @@
 #include "engine/errors.h"
 #include "render/gl_context.h"
 #include "render/volume_renderer.h"
+#include "tools/bench.h"
 #include "tools/cli.h"
 
 namespace hapvox::cli {
@@ -75,7 +76,8 @@ void run_bench_render(const BenchRenderFlags& f) {
               "frame ms", "draw ms", "vertices", "PSNR dB");
   std::vector<Row> rows;
   for (const std::string& spec : split_list(f.volumes)) {
-    const std::string& path = spec;
+    // The bundled volume is found wherever hapvox runs from (the default names it).
+    const std::string path = find_bundled(spec);
     const engine::DensityField field = engine::load_volume(path, engine::IntensityMapping{});
     const bool generated = path.find(':') != std::string::npos;
     render::VolumeRenderer renderer(

@@ -38,8 +38,8 @@ double drawn_fraction(const render::Image& image) {
 
 TEST(RenderCli, TurntableWritesFramesThatShowTheEngineFromEachSide) {
   const std::string dir = scratch_dir() + "/turn";  // created by the command
-  const auto r = run_hapvox("render " + source_path("data/engine_256x256x128_uint8.nrrd") +
-                            " -o " + dir + " --turntable 4 --size 128x96 --slices 128");
+  const auto r = run_hapvox("render " + source_path("data/engine_256x256x128_uint8.nrrd") + " -o " +
+                            dir + " --turntable 4 --size 128x96 --slices 128");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("wrote 4 frames of 128x96"), std::string::npos) << r.out;
   std::vector<render::Image> frames;
@@ -55,9 +55,9 @@ TEST(RenderCli, TurntableWritesFramesThatShowTheEngineFromEachSide) {
 
 TEST(RenderCli, TraceReplayDrawsTheToolPressingAndSculpting) {
   const std::string dir = scratch_dir();
-  const auto r = run_hapvox("render block -o " + dir + "/clay --size 96 --slices 96 " +
-                            "--trace " + source_path("traces/clay_stroke.csv") +
-                            " --plastic --every-ticks 2000 -q");
+  const auto r =
+      run_hapvox("render block -o " + dir + "/clay --size 96 --slices 96 " + "--trace " +
+                 source_path("traces/clay_stroke.csv") + " --plastic --every-ticks 2000 -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const int frames = static_cast<int>(
       std::distance(fs::directory_iterator(dir + "/clay"), fs::directory_iterator{}));
@@ -77,11 +77,14 @@ TEST(RenderCli, BadInputGivesOneLineNamingTheProblemAndCreatesNothing) {
   };
   const std::vector<Case> cases = {
       {"render " + dir + "/none.nrrd -o " + out, dir + "/none.nrrd: "},
-      {"render block -o " + out + " --size 5", "--size: expected N or WxH with 16 <= N <= 8192, got '5'"},
+      {"render block -o " + out + " --size 5",
+       "--size: expected N or WxH with 16 <= N <= 8192, got '5'"},
       {"render block -o " + out + " --size 64xq", "--size: expected N or WxH"},
       {"render block -o " + out + " --slices 0", "--slices: must lie in [1, 4096]"},
-      {"render block -o " + out + " --kernel gauss", "--kernel: expected wendland or paper, got 'gauss'"},
-      {"render block -o " + out + " --tessellation x", "--tessellation: expected adaptive or uniform"},
+      {"render block -o " + out + " --kernel gauss",
+       "--kernel: expected wendland or paper, got 'gauss'"},
+      {"render block -o " + out + " --tessellation x",
+       "--tessellation: expected adaptive or uniform"},
       {"render block -o " + out + " --transfer nope", "nope: not a transfer-function preset"},
       {"render block -o " + out + " --plastic", "--plastic: needs --trace"},
       {"render block -o " + out + " --trace " + dir + "/none.csv", dir + "/none.csv: "},
@@ -113,10 +116,10 @@ TEST(RenderCli, AMachineWithoutEglGetsAClearErrorAndNoOutput) {
             "available; install Mesa's EGL (Debian: libegl-mesa0 libgl1-mesa-dri)\n");
   EXPECT_FALSE(fs::exists(dir + "/frames"));
   // And a replay asked to render writes no session either.
-  const auto replay = run_hapvox_env(
-      "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent",
-      "replay " + source_path("traces/engine_press.csv") + " --volume block -o " + dir +
-          "/s.h5 --render-dir " + dir + "/frames -q");
+  const auto replay =
+      run_hapvox_env("__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent",
+                     "replay " + source_path("traces/engine_press.csv") + " --volume block -o " +
+                         dir + "/s.h5 --render-dir " + dir + "/frames -q");
   EXPECT_EQ(replay.exit_code, 2);
   EXPECT_EQ(replay.err.rfind("hapvox: error: EGL: ", 0), 0u) << replay.err;
   EXPECT_FALSE(fs::exists(dir + "/s.h5"));
@@ -151,18 +154,34 @@ TEST(RenderCli, RealtimeReplayWithARenderThreadRecordsFrameTimes) {
   EXPECT_EQ(ticks.size(), frame_ns.size());
   for (std::size_t i = 1; i < ticks.size(); ++i) EXPECT_GE(ticks[i], ticks[i - 1]);
   // One PNG a frame.
-  EXPECT_EQ(static_cast<std::size_t>(std::distance(fs::directory_iterator(dir + "/frames"),
-                                                   fs::directory_iterator{})),
+  EXPECT_EQ(static_cast<std::size_t>(
+                std::distance(fs::directory_iterator(dir + "/frames"), fs::directory_iterator{})),
             frame_ns.size());
 }
 
 TEST(RenderCli, BenchRenderPrintsOursBesideTheNaiveMeshWithPsnr) {
-  const auto r = run_hapvox("bench render --volumes block:dims=64 --sizes 64 --frames 1 --slices 64");
+  const auto r =
+      run_hapvox("bench render --volumes block:dims=64 --sizes 64 --frames 1 --slices 64");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("ours: adaptive, 64 slices"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("naive: 500 x 20x20, Eq. 10"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ours / naive"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("PSNR dB"), std::string::npos) << r.out;
+}
+
+// Issue 8 point 6: the bundled volume is found wherever hapvox runs from (here a fresh
+// directory with no data/ in it), as bench render's default names it.
+TEST(RenderCli, BenchRenderFindsTheBundledVolumeFromAnyWorkingDirectory) {
+  const std::string dir = scratch_dir();
+  ASSERT_FALSE(fs::exists(dir + "/data"));
+  // run_hapvox_env puts its first argument before the command: change directory there.
+  const auto r = run_hapvox_env("cd " + dir + " &&",
+                                "bench render --volumes data/engine_256x256x128_uint8.nrrd "
+                                "--sizes 16 --frames 1 --slices 16");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("cannot open"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("engine_256x256x128_uint8.nrrd"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ours / naive"), std::string::npos) << r.out;
 }
 
 }  // namespace
