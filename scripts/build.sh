@@ -5,6 +5,8 @@
 # compiler runs through ccache when ccache is on PATH (its cache lives under $HOME), told
 # that precompiled headers are safe to cache: without that sloppiness it caches nothing
 # here, every file being compiled with engine/'s precompiled OpenVDB and Eigen headers.
+# CCACHE_BASEDIR makes paths under the checkout relative and CCACHE_NOHASHDIR leaves the
+# working directory out of the hash, so a clone in another folder (CI's) hits the cache.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 target=()
@@ -16,7 +18,7 @@ build_dir=${1:-"$root/build"}
 shift || true
 launcher=()
 if command -v ccache >/dev/null 2>&1; then
-  ccache="env;CCACHE_SLOPPINESS=pch_defines,time_macros,include_file_mtime,include_file_ctime;ccache"
+  ccache="env;CCACHE_SLOPPINESS=pch_defines,time_macros,include_file_mtime,include_file_ctime;CCACHE_BASEDIR=$root;CCACHE_NOHASHDIR=1;ccache"
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER="$ccache" -DCMAKE_CXX_COMPILER_LAUNCHER="$ccache")
 fi
 cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" "$@" >/dev/null
