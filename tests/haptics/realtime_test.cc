@@ -207,7 +207,8 @@ TEST(Realtime, AStallSendsTheLateForceThenRampsItDownAndBackWithoutAStep) {
   while (scale[full] != 1.0) --full;  // (a tick preempted on a loaded machine trips too)
   ASSERT_GT(full, 200u);
   const Vec3d held = force_at(force, full);
-  ASSERT_GT(held.norm(), 0.3);
+  // A real press (about 0.29 N under the Hertz law), so a cut to zero would be a step.
+  ASSERT_GT(held.norm(), 0.2);
   // The late tick sent its own force, at the scale it had.
   EXPECT_NEAR((force_at(force, stall_tick) - scale[stall_tick] * held).norm(), 0.0, 1e-12);
   EXPECT_GT(force_at(force, stall_tick).norm(), 0.0);
