@@ -39,14 +39,12 @@ std::string scratch_dir() {
   return dir.string();
 }
 
-namespace {
-std::string slurp(const std::string& path) {
+std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
 }
-}  // namespace
 
 CommandResult run_hapvox(const std::string& args) { return run_hapvox_env("", args); }
 
@@ -60,8 +58,8 @@ CommandResult run_hapvox_env(const std::string& environment, const std::string& 
   const int status = std::system(command.c_str());
   CommandResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
+  r.out = read_file(out);
+  r.err = read_file(err);
   return r;
 }
 

@@ -11,6 +11,8 @@ std::string source_path(const std::string& relative);
 std::string hapvox_binary();
 /// A fresh, empty directory unique to the running test.
 std::string scratch_dir();
+/// The bytes of a file ("" when it cannot be read).
+std::string read_file(const std::string& path);
 
 /// What a run of the hapvox executable printed and returned.
 struct CommandResult {

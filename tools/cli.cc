@@ -1,9 +1,15 @@
 #include "tools/cli.h"
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <regex>
 #include <sstream>
@@ -47,6 +53,46 @@ double unit_scale(const std::string& unit, const std::string& flag,
 }
 
 }  // namespace
+
+std::vector<double> parse_number_list(const std::string& text, const std::string& flag) {
+  std::vector<double> out;
+  for (const std::string& item : split(text, ',')) {
+    char* end = nullptr;
+    const double value = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(value)) {
+      throw InputError(flag, "expected a comma-separated list of numbers, got '" + text + "'");
+    }
+    out.push_back(value);
+  }
+  if (out.empty()) {
+    throw InputError(flag, "expected a comma-separated list of numbers, got '" + text + "'");
+  }
+  return out;
+}
+
+std::string shell_quoted(const std::string& text) {
+  std::string out = "'";
+  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+int run_python_script(const std::string& python, const char* script, const std::string& tag,
+                      const std::vector<std::string>& args) {
+  const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                     ("hapvox_" + tag + "_" + std::to_string(getpid()) + ".py");
+  {
+    std::ofstream out(path);
+    out << script;
+    if (!out) throw InputError(path.string(), "cannot write the plotting script");
+  }
+  std::string command = shell_quoted(python) + " " + shell_quoted(path.string());
+  for (const std::string& arg : args) command += " " + shell_quoted(arg);
+  std::fflush(stdout);  // what we printed comes before what python prints
+  const int status = std::system(command.c_str());
+  std::filesystem::remove(path);
+  if (status == 0) return 0;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
 
 Eigen::Vector3d parse_vec3(const std::string& text, const std::string& flag) {
   const auto parts = split(text, ',');

@@ -18,6 +18,16 @@ namespace hapvox::cli {
 
 /// Parses "X,Y,Z" (three finite numbers). Throws InputError(flag, ...).
 Eigen::Vector3d parse_vec3(const std::string& text, const std::string& flag);
+/// "A,B,C" as numbers; InputError(flag, "expected a comma-separated list of numbers, ...").
+std::vector<double> parse_number_list(const std::string& text, const std::string& flag);
+
+/// `text` in single quotes for /bin/sh (embedded quotes escaped).
+std::string shell_quoted(const std::string& text);
+/// Writes `script` (a compiled-in Python text) to a temporary file, runs `python` on it
+/// with `args` (each shell-quoted), removes the file, and returns the exit status (-1 when
+/// the interpreter did not exit normally). Throws InputError when the file can't be written.
+int run_python_script(const std::string& python, const char* script, const std::string& tag,
+                      const std::vector<std::string>& args);
 
 /// --threshold / --window flags.
 struct MappingFlags {

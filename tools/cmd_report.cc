@@ -5,13 +5,9 @@
 // than hand-written: the script is compiled into the binary (tools/report.py) and run
 // with the system python3, so the command works from any directory.
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <system_error>
 
@@ -29,12 +25,6 @@ struct ReportFlags {
   std::string python = "/usr/bin/python3";
 };
 
-std::string quoted(const std::string& text) {
-  std::string out = "'";
-  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
 void run_report(const ReportFlags& f) {
   if (!haptics::is_hdf5_file(f.session)) {
     throw InputError(f.session, std::filesystem::exists(f.session) ? "not an HDF5 session file"
@@ -44,7 +34,8 @@ void run_report(const ReportFlags& f) {
                              {{f.session, "session"}});
   const haptics::SessionInfo info = haptics::read_session_info(f.session);
   if (info.rows == 0) throw InputError(f.session, "the session has no rows");
-  const std::string probe = quoted(f.python) + " -c 'import matplotlib, h5py, numpy' 2>/dev/null";
+  const std::string probe =
+      shell_quoted(f.python) + " -c 'import matplotlib, h5py, numpy' 2>/dev/null";
   if (std::system(probe.c_str()) != 0) {
     throw InputError("--python", f.python +
                                      " cannot import matplotlib, h5py and numpy (install "
@@ -58,21 +49,10 @@ void run_report(const ReportFlags& f) {
     throw InputError(f.out_dir, "cannot create the output directory" +
                                     (error ? " (" + error.message() + ")" : std::string()));
   }
-  const std::filesystem::path script = std::filesystem::temp_directory_path() /
-                                       ("hapvox_report_" + std::to_string(getpid()) + ".py");
-  {
-    std::ofstream out(script);
-    out << kReportScript;
-    if (!out) throw InputError(script.string(), "cannot write the plotting script");
-  }
-  const std::string command = quoted(f.python) + " " + quoted(script.string()) + " " +
-                              quoted(f.session) + " " + quoted(f.out_dir);
-  const int status = std::system(command.c_str());
-  std::filesystem::remove(script);
+  const int status = run_python_script(f.python, kReportScript, "report", {f.session, f.out_dir});
   if (status != 0) {
-    throw InputError(f.session, "plotting failed (python exit status " +
-                                    std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                                    ")");
+    throw InputError(f.session,
+                     "plotting failed (python exit status " + std::to_string(status) + ")");
   }
 }
 

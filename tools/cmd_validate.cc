@@ -6,12 +6,8 @@
 // prints each case's worst error and log-log slope over d/R in [0.02, 0.15] (depths of at
 // least one voxel). Exit 3 when a case misses 5 % or a slope of 1.5 +- 0.05.
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -35,29 +31,6 @@ struct ValidateFlags {
   bool plot = true;
   std::string python = "/usr/bin/python3";
 };
-
-std::vector<double> parse_list(const std::string& text, const std::string& flag) {
-  std::vector<double> out;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t comma = std::min(text.find(',', start), text.size());
-    const std::string item = text.substr(start, comma - start);
-    char* end = nullptr;
-    const double value = std::strtod(item.c_str(), &end);
-    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(value)) {
-      throw InputError(flag, "expected a comma-separated list of numbers, got '" + text + "'");
-    }
-    out.push_back(value);
-    start = comma + 1;
-  }
-  return out;
-}
-
-std::string quoted(const std::string& text) {
-  std::string out = "'";
-  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
 
 double hertz_force_n(double e_pa, double nu, double r_mm, double d_mm) {
   return 4.0 / 3.0 * e_pa / (1.0 - nu * nu) * std::sqrt(r_mm) * std::pow(d_mm, 1.5) * 1e-6;
@@ -105,9 +78,9 @@ std::vector<Row> press(double r_mm, double h_mm, double nu, double e_pa, double 
 }
 
 bool run_validate_hertz(const ValidateFlags& f) {
-  const std::vector<double> radii = parse_list(f.radii_mm, "--radii-mm");
-  const std::vector<double> ratios = parse_list(f.poisson, "--poisson");
-  const std::vector<double> voxels = parse_list(f.voxels_mm, "--voxels-mm");
+  const std::vector<double> radii = parse_number_list(f.radii_mm, "--radii-mm");
+  const std::vector<double> ratios = parse_number_list(f.poisson, "--poisson");
+  const std::vector<double> voxels = parse_number_list(f.voxels_mm, "--voxels-mm");
   for (double r : radii) {
     if (!(r > 0.0)) throw InputError("--radii-mm", "radii must be positive");
   }
@@ -177,25 +150,12 @@ bool run_validate_hertz(const ValidateFlags& f) {
   if (!csv) throw InputError(csv_path, "write failed");
   std::filesystem::rename(partial, csv_path);
   std::printf("wrote %s\n", csv_path.c_str());
-  std::fflush(stdout);  // before python writes to the same stream
   if (f.plot) {
-    const std::filesystem::path script = std::filesystem::temp_directory_path() /
-                                         ("hapvox_hertz_" + std::to_string(getpid()) + ".py");
-    {
-      std::ofstream out(script);
-      out << kHertzPlotScript;
-      if (!out) throw InputError(script.string(), "cannot write the plotting script");
-    }
     const std::string png = (std::filesystem::path(f.out_dir) / "hertz.png").string();
-    const std::string command = quoted(f.python) + " " + quoted(script.string()) + " " +
-                                quoted(csv_path) + " " + quoted(png);
-    const int status = std::system(command.c_str());
-    std::filesystem::remove(script);
+    const int status = run_python_script(f.python, kHertzPlotScript, "hertz", {csv_path, png});
     if (status != 0) {
-      throw InputError("--python",
-                       "plotting failed (python exit status " +
-                           std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                           "; --no-plot skips it)");
+      throw InputError("--python", "plotting failed (python exit status " + std::to_string(status) +
+                                       "; --no-plot skips it)");
     }
   }
   return all_pass;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <vector>
 
+#include "engine/block_field.h"
 #include "engine/tool_force.h"
 
 namespace hapvox::engine {
@@ -14,16 +15,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A block of density 1 filling index z < top_k over an n x n footprint; its nominal
-// surface (density 1/2 under trilinear interpolation) is the voxel face z = (top_k - 0.5) h.
+// A block of voxel size h_mm with room above its face.
 DensityField make_block(int n, int top_k, double h_mm) {
-  initialize_openvdb();
-  auto grid = openvdb::FloatGrid::create(0.0f);
-  grid->tree().fill(
-      openvdb::CoordBBox(openvdb::Coord(0, 0, 0), openvdb::Coord(n - 1, n - 1, top_k - 1)), 1.0f,
-      true);
-  grid->tree().voxelizeActiveTiles();
-  return DensityField(grid, Vec3d::Constant(h_mm), Vec3d::Zero(), Vec3i(n, n, top_k + 8));
+  return fixtures::make_block(n, top_k, Vec3d::Constant(h_mm), top_k + 8);
 }
 
 // Hertz: F = 4/3 E* sqrt(R) d^1.5, E* = E / (1 - nu^2) (rigid sphere, elastic half-space).

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "engine/block_field.h"
 #include "engine/errors.h"
 
 namespace hapvox::engine {
@@ -12,16 +13,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A clay block filling index z < top_k of an n^3 box (voxel faces at z = top_k - 0.5).
-DensityField make_block(int n, int top_k, const Vec3d& voxel_mm) {
-  initialize_openvdb();
-  auto grid = openvdb::FloatGrid::create(0.0f);
-  grid->tree().fill(
-      openvdb::CoordBBox(openvdb::Coord(0, 0, 0), openvdb::Coord(n - 1, n - 1, top_k - 1)), 1.0f,
-      true);
-  grid->tree().voxelizeActiveTiles();
-  return DensityField(grid, voxel_mm, Vec3d::Zero(), Vec3i(n, n, n));
-}
+using fixtures::make_block;
 
 // A solid sphere of radius r_mm centred at c_mm.
 DensityField make_ball(int n, double voxel_mm, const Vec3d& c_mm, double r_mm) {

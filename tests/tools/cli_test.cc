@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -19,16 +18,10 @@ namespace hapvox {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::read_file;
 using testing::scratch_dir;
 using testing::source_path;
 using Result = testing::CommandResult;
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 void write_file(const std::string& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;
@@ -48,8 +41,8 @@ void expect_error_in(const std::string& dir, const std::string& args, const std:
 // Issue 8 point 7: `hapvox replay p.csv --volume block -o p.csv` overwrote the trace.
 TEST(CliOutputs, AnOutputNamingAnInputIsRefusedAndTheInputKept) {
   const std::string dir = scratch_dir();
-  write_file(dir + "/p.csv", slurp(source_path("traces/clay_stroke.csv")));
-  write_file(dir + "/q.csv.partial", slurp(source_path("traces/clay_stroke.csv")));
+  write_file(dir + "/p.csv", read_file(source_path("traces/clay_stroke.csv")));
+  write_file(dir + "/q.csv.partial", read_file(source_path("traces/clay_stroke.csv")));
   fs::create_symlink("p.csv", dir + "/link.csv");
   engine::write_nrrd(engine::generate_volume("block:dims=32"), dir + "/clay.nrrd");
   engine::write_vdb(engine::generate_volume("block:dims=32"), dir + "/clay.vdb");
@@ -62,7 +55,7 @@ TEST(CliOutputs, AnOutputNamingAnInputIsRefusedAndTheInputKept) {
   std::vector<std::string> inputs = {"p.csv", "q.csv.partial", "clay.nrrd",     "clay.vdb",
                                      "d.raw", "d.nhdr",        "frame_0002.png"};
   std::vector<std::string> before;
-  for (const std::string& name : inputs) before.push_back(slurp(dir + "/" + name));
+  for (const std::string& name : inputs) before.push_back(read_file(dir + "/" + name));
 
   const std::string trace = "replay p.csv --volume block:dims=32 ";
   expect_error_in(dir, trace + "-o p.csv", "p.csv: --output would overwrite the input trace p.csv");
@@ -110,7 +103,7 @@ TEST(CliOutputs, AnOutputNamingAnInputIsRefusedAndTheInputKept) {
   EXPECT_FALSE(fs::exists(dir + "/clay.vdb.partial"));
   EXPECT_FALSE(fs::exists(dir + "/frame_0000.png"));
   for (std::size_t i = 0; i < inputs.size(); ++i) {
-    EXPECT_EQ(slurp(dir + "/" + inputs[i]), before[i]) << inputs[i];
+    EXPECT_EQ(read_file(dir + "/" + inputs[i]), before[i]) << inputs[i];
   }
   EXPECT_TRUE(fs::is_symlink(dir + "/link.csv"));
   // An output beside its inputs is fine.
@@ -125,13 +118,13 @@ TEST(CliOutputs, ReportRefusesAPictureNamedLikeItsSession) {
   write_file(dir + "/t.csv", "t,x,y,z\n0,64,64,90\n0.01,64,64,89\n");
   ASSERT_EQ(run_in(dir, "replay t.csv --volume block -o s.h5").exit_code, 0);
   fs::rename(dir + "/s.h5", session);
-  const std::string before = slurp(session);
+  const std::string before = read_file(session);
   expect_error_in(dir, "report force.png -o .",
                   ".: --output would overwrite the input session force.png (a file it writes "
                   "into .)");
   expect_error_in(dir, "report force.png -o force.png",
                   "force.png: --output would overwrite the input session force.png");
-  EXPECT_EQ(slurp(session), before);
+  EXPECT_EQ(read_file(session), before);
 }
 
 bool printable_ascii(const std::string& text) {

@@ -26,17 +26,11 @@ namespace fs = std::filesystem;
 using engine::Vec3d;
 using engine::Vec3i;
 using testing::hapvox_binary;
+using testing::read_file;
 using testing::scratch_dir;
 using testing::source_path;
 
 using Result = testing::CommandResult;
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 Result run(const std::string& args) { return testing::run_hapvox(args); }
 
@@ -146,7 +140,7 @@ TEST(HapvoxCli, BadVolumesAreRejected) {
   const std::string head = "replay " + press_trace() + " -o " + out + " --volume ";
   expect_input_error(head + dir + "/missing.nrrd", dir + "/missing.nrrd: cannot open file");
   // Truncated inside the gzip payload.
-  const std::string full = slurp(engine_nrrd());
+  const std::string full = read_file(engine_nrrd());
   write_file(dir + "/cut.nrrd", full.substr(0, full.size() / 2));
   const Result cut = run(head + dir + "/cut.nrrd");
   EXPECT_EQ(cut.exit_code, 2);
@@ -192,7 +186,7 @@ TEST(HapvoxCli, BadVdbVolumesAreRejected) {
   engine::write_vdb(engine::generate_volume("block:dims=32"), good);
   const std::string replay = "replay " + press_trace() + " -o " + out + " --volume ";
   ASSERT_EQ(run("info " + good).exit_code, 0);
-  const std::string bytes = slurp(good);
+  const std::string bytes = read_file(good);
   ASSERT_GT(bytes.size(), 1000u);
   write_file(dir + "/cut.vdb", bytes.substr(0, bytes.size() / 2));
   std::string flipped = bytes;
@@ -252,11 +246,11 @@ TEST(HapvoxCli, BadTracesAreRejected) {
   write_file(dir + "/empty.csv", "");
   expect_input_error(replay(dir + "/empty.csv"), dir + "/empty.csv: empty file: no header row");
   // Truncated mid-row (a recorder killed while writing) and truncated HDF5.
-  const std::string csv = slurp(press_trace());
+  const std::string csv = read_file(press_trace());
   write_file(dir + "/cut.csv", csv.substr(0, 5000));
   expect_input_error(replay(dir + "/cut.csv"),
                      dir + "/cut.csv: line 148: expected 4 fields, found 1");
-  const std::string h5 = slurp(source_path("traces/block_circle.h5"));
+  const std::string h5 = read_file(source_path("traces/block_circle.h5"));
   write_file(dir + "/cut.h5", h5.substr(0, h5.size() / 2));
   expect_input_error(replay(dir + "/cut.h5"), dir + "/cut.h5: cannot open HDF5 file");
   write_file(dir + "/junk.h5", "not hdf5 at all");
@@ -311,7 +305,7 @@ TEST(HapvoxCli, FailedRunLeavesAnExistingSessionUntouched) {
   write_file(dir + "/bad.csv", "t,x,y,z\n0,1,2,3\n");
   const Result r = run("replay " + dir + "/bad.csv --volume block:dims=32 -o " + out);
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(slurp(out), "previous results");
+  EXPECT_EQ(read_file(out), "previous results");
 }
 
 TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
@@ -460,7 +454,7 @@ void expect_table1_csv_and_json(const std::string& command) {
   for (const char* measure : {"force ", "deletion ", "relaxation ", "flow-visits ", "settle "}) {
     EXPECT_NE(r.out.find(std::string("\n") + measure), std::string::npos) << measure << r.out;
   }
-  const std::string csv = slurp(dir + "/t1.csv");
+  const std::string csv = read_file(dir + "/t1.csv");
   EXPECT_NE(csv.find("# cpu: "), std::string::npos) << csv;
   EXPECT_NE(csv.find("measure,volume,diameter_voxels,unit,ours,naive,seed"), std::string::npos);
   EXPECT_NE(csv.find("\ndeletion,64,16,Hz,"), std::string::npos) << csv;
@@ -515,7 +509,7 @@ TEST(HapvoxCli, CheckTimingPassesARelaxedBudgetAndFailsAnImpossibleOne) {
 }
 
 bool is_png(const std::string& path) {
-  const std::string bytes = slurp(path);
+  const std::string bytes = read_file(path);
   return bytes.size() > 10000 && bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0;
 }
 
