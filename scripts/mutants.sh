@@ -10,11 +10,13 @@ build_dir=${1:-"$root/build"}
 survivors=0
 
 # name | file | exact text | replacement | test binary | gtest filter
+# (Whole-voxel deletion is killed by the partial-volume surface test; the stroke ripple test
+# passes with it under the Hertz law, so it is not the one named here.)
 mutants=(
   "plastic x0 update halved|engine/tool_force.cc|s.contact_origin_mm += dir * (plastic_strain * length_mm);|s.contact_origin_mm += dir * (0.5 * plastic_strain * length_mm);|engine_tests|ContactLaw.*:ToolForce.*"
   "plastic x0 update dropped|engine/tool_force.cc|s.contact_origin_mm += dir * (plastic_strain * length_mm);|(void)dir;|engine_tests|ContactLaw.*:ToolForce.*"
   "relaxation takes the lowest density first|engine/relax.h|if (units != other.units) return units < other.units;|if (units != other.units) return units > other.units;|engine_tests|Relax.*"
-  "deletion in whole voxels (centre inside: emptied)|engine/relax.cc|const auto room = static_cast<std::int32_t>(std::floor(normal_units_ * (1.0 - covered)));|const std::int32_t room = covered >= 0.5 ? 0 : units;|haptics_tests|SculptForce.*"
+  "deletion in whole voxels (centre inside: emptied)|engine/relax.cc|const auto room = static_cast<std::int32_t>(std::floor(normal_units_ * (1.0 - covered)));|const std::int32_t room = covered >= 0.5 ? 0 : units;|engine_tests|Relax.*"
   "slip bound doubled|engine/tool_force.cc|const double t_max = ratio * u_normal;|const double t_max = 2.0 * ratio * u_normal;|engine_tests|ContactLaw.*:ToolForce.*"
   "ramp-in not applied by the force stage|haptics/replay.cc|row.force_scale = ramp.next();|row.force_scale = 1.0; (void)ramp.next();|haptics_tests|Replay.*:Realtime.*"
 )
