@@ -52,7 +52,7 @@
 #include <vector>
 
 #include "engine/density_field.h"
-#include "engine/tool_force.h"
+#include "engine/surface_change.h"
 
 namespace hapvox::engine {
 

@@ -36,6 +36,7 @@
 
 #include "engine/density_field.h"
 #include "engine/material.h"
+#include "engine/surface_change.h"
 
 namespace hapvox::engine {
 
@@ -50,17 +51,6 @@ struct PlasticMaterial {
   bool enabled = false;
   double yield_stress_pa = 10e3;  // on the mean contact pressure F / |N| (docs/physics.md)
   double elastoplastic_modulus_pa = 0.0;
-};
-
-/// What a plastic step asks the relaxation to do: empty the tool's sphere at
-/// `position_mm` (the tool centre on the new surface), pushing material along `direction`.
-/// Coalesced changes sweep the sphere from `from_mm` to `position_mm` (a capsule); a
-/// single change has from_mm == position_mm.
-struct SurfaceChange {
-  Vec3d from_mm = Vec3d::Zero();
-  Vec3d position_mm = Vec3d::Zero();
-  Vec3d direction = Vec3d::Zero();  // unit
-  double radius_mm = 0.0;
 };
 
 /// How the strain's reference length L is chosen (docs/physics.md, "Contact law").

@@ -1,18 +1,17 @@
 #pragma once
 // Realtime replay: the same force stage as the lockstep replay, paced by the wall clock on
-// its own thread, with the relaxation on a second thread and the session written from the
-// calling thread.
+// its own thread, with the model's background stage (the relaxation of the voxel model)
+// on a second thread and the session written from the calling thread. Nothing here names
+// a concrete model (haptics/model_stages.h); the voxel model's stages are described in
+// haptics/voxel_model.h.
 //
 //   force thread     absolute 1 kHz deadlines (sleep, then spin the last stretch); each
-//                    tick: pick the field buffer to read, step the model, make the force
-//                    safe, push any surface change, fill the preallocated row. No locks,
-//                    no allocation, no I/O, no exceptions after start.
-//   relax thread     slices of bounded work (run_relax_stage: at most
-//                    max_deletions_per_slice deletions, then at most relax_voxels_per_slice
-//                    relaxation steps), each followed by the publication of changed voxels
-//                    into the back buffer of a DoubleBufferedField; exact mass measured
-//                    every ~50 ms while the grid changes. With no work it sleeps until the
-//                    force thread pushes a change (SurfaceChangeChannel::wait_for_arrival).
+//                    tick: take up the background stage's publication, step the model's
+//                    force stage, make the force safe, fill the preallocated row. No
+//                    locks, no allocation, no I/O, no exceptions after start.
+//   background       BackgroundStage::run_realtime: bounded slices of work, sleeping while
+//                    there is none (the voxel model: relaxation slices publishing into a
+//                    DoubleBufferedField, waking on the force thread's next change).
 //   calling thread   appends finished rows to the session (~10 times a second) and
 //                    reports progress.
 
@@ -23,26 +22,11 @@
 #include <string>
 #include <vector>
 
-#include "haptics/double_buffered_field.h"
 #include "haptics/render_feed.h"
 #include "haptics/replay.h"
 #include "haptics/scheduler.h"
 
 namespace hapvox::haptics {
-
-struct RealtimeSculpt {
-  engine::MassGrid* mass = nullptr;
-  DoubleBufferedField* field = nullptr;  // the model must read field->buffer(0)
-  SurfaceChangeChannel* channel = nullptr;
-  std::size_t relax_voxels_per_slice = 2000;  // relaxation steps per slice (MassGrid::relax)
-  std::size_t max_deletions_per_slice = 8;    // queued surface changes applied per slice
-};
-
-/// Median, tail and maximum of a set of durations, in microseconds.
-struct DurationStats {
-  std::size_t count = 0;
-  double p50_us = 0, p99_us = 0, p999_us = 0, max_us = 0;
-};
 
 struct TimingSummary {
   double rate_hz = 0;  // target
@@ -58,7 +42,8 @@ struct TimingSummary {
   std::size_t stalled_ticks = 0;        // started more than a full period late
   double machine_steal_s = 0;           // hypervisor steal time, all CPUs, over the run
   SchedulerReport scheduler;
-  // Relaxation thread: one slice = apply queued deletions, relax a budget, publish.
+  // Background thread (the voxel model: one slice = apply queued deletions, relax a
+  // budget, publish).
   DurationStats relax_slice;
   double relax_busy_fraction = 0;  // time in slices / wall time
   double relax_cpu_s = 0;
@@ -72,9 +57,6 @@ struct TimingSummary {
   std::uint64_t render_queue_full = 0;  // times the voxel queue was full (nothing lost)
   RenderTiming render;
 };
-
-/// Median, p99, p99.9 and maximum of `values_us` (reorders nothing; copies).
-DurationStats duration_stats(const std::vector<double>& values_us);
 
 /// Called on the force thread right before its first tick and right after its last one
 /// (tests use them to prove the loop does not allocate; profilers to tag the thread).
@@ -98,11 +80,12 @@ struct RealtimeOptions {
   RenderLoop render_loop;
 };
 
-/// Replays `device` in realtime. With `sculpt`, plastic changes flow to the relaxation
-/// thread and back into the field the force thread reads.
-ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDevice& device,
-                              const DeviceLimits& limits, SessionWriter* session,
-                              const ProgressFn& progress, RealtimeSculpt* sculpt,
+/// Replays `device` in realtime through a model's stages. With a `background` stage, it
+/// runs on a second thread (BackgroundStage::run_realtime), fed by the force stage's
+/// hand-offs and publishing back to it; `sculpt_summary` (if not null) gets what it did.
+ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background,
+                              const TraceDevice& device, const DeviceLimits& limits,
+                              SessionWriter* session, const ProgressFn& progress,
                               SculptSummary* sculpt_summary, TimingSummary* timing,
                               const RealtimeOptions& options = {});
 

@@ -1,18 +1,17 @@
 #pragma once
 // Lockstep replay: the force loop driven by a simulated 1 kHz clock. Tick k happens at
 // trace time t0 + k / rate; the device position comes from the resampled trace, the force
-// from the engine, and each tick is recorded. Nothing here depends on the wall clock
-// except the per-tick compute time, so two replays give identical physics datasets.
+// from a model's force stage (haptics/model_stages.h), and each tick is recorded. Nothing
+// here depends on the wall clock except the per-tick compute time, so two replays give
+// identical physics datasets. Nothing here names a concrete model.
 
 #include <cstdint>
 #include <functional>
 #include <vector>
 
-#include "engine/relax.h"
-#include "engine/tool_force.h"
-#include "haptics/render_feed.h"
+#include "haptics/model_stages.h"
+#include "haptics/replay_summary.h"
 #include "haptics/session.h"
-#include "haptics/surface_channel.h"
 #include "haptics/trace.h"
 
 namespace hapvox::haptics {
@@ -89,100 +88,31 @@ class TraceDevice {
   DeviceTransform transform_;
 };
 
-struct ReplaySummary {
-  std::size_t ticks = 0;
-  std::size_t contact_ticks = 0;
-  double contact_time_s = 0.0;
-  double duration_s = 0.0;
-  double peak_force_n = 0.0;
-  std::size_t clamped_ticks = 0;
-  std::size_t nonfinite_forces = 0;
-  std::uint64_t contact_onsets = 0;
-  int trace_gaps = 0;
-  double trace_held_s = 0.0;
-  // Per-tick compute time (wall clock), microseconds.
-  double compute_p50_us = 0.0;
-  double compute_p99_us = 0.0;
-  double compute_max_us = 0.0;
-};
-
-/// What a sculpting (plastic) replay needs besides the force model: the relaxation's mass
-/// grid, the float field the force model reads (updated from the mass grid after each
-/// relaxation stage), the channel between the two, and the fixed per-tick budget.
-struct SculptContext {
-  engine::MassGrid* mass = nullptr;
-  engine::DensityField* mirror = nullptr;
-  SurfaceChangeChannel* channel = nullptr;
-  std::size_t relax_voxels_per_tick = 2000;  // relaxation steps per tick (MassGrid::relax)
-  std::size_t max_deletions_per_tick = 8;    // queued surface changes applied per tick
-  std::size_t mass_every_ticks = 10;         // exact total mass measured every N ticks
-};
-
-struct SculptSummary {
-  std::uint64_t plastic_events = 0;
-  std::uint64_t queue_overflows = 0;
-  std::uint64_t deleted_voxels = 0;
-  std::uint64_t relaxed_voxels = 0;
-  std::int64_t initial_mass_units = 0;
-  std::int64_t final_mass_units = 0;
-  std::size_t max_queue_depth = 0;
-  bool settled = false;
-};
-
-/// The force stage of tick `tick`, the same code in lockstep and realtime: reads the
-/// device, steps the model, makes the force safe (clamped, then scaled by ramp.next()),
-/// and fills the row's device, force and plasticity fields. Call it for every tick in
-/// order, with one `ramp` per run. With a channel, hands a surface change to it (or flushes
-/// a coalesced one) and records the queue depth. Returns true when the model's force was
-/// non-finite (sent as zero). Does not allocate, lock, throw or do I/O.
-bool run_force_stage(const engine::ToolForceModel& model, const TraceDevice& device,
-                     std::size_t tick, const DeviceLimits& limits, engine::ToolForceState& state,
-                     ForceRamp& ramp, SurfaceChangeChannel* channel, TickRecord& row);
-
-/// What one relaxation stage did.
-struct RelaxStageWork {
-  std::size_t deletions = 0;    // surface changes applied
-  std::size_t relax_steps = 0;  // MassGrid::relax steps
-};
-
-/// The relaxation stage of one lockstep tick or one realtime slice, the same code in both,
-/// with bounded work so the relaxation stays responsive: at most `max_deletions` queued
-/// surface changes applied (highest priority; the rest wait in the channel for the next
-/// stage), then at most `relax_budget` relaxation steps.
-RelaxStageWork run_relax_stage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
-                               std::size_t max_deletions, std::size_t relax_budget);
-
-/// The end of a sculpting run (no reader left): applies every change still queued and
-/// finishes the flows, so the grid holds all the mass.
-void drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel);
+/// The force stage of tick `tick`, the same code in lockstep and realtime and for every
+/// model: reads the device, steps the model's force stage, makes the force safe (clamped,
+/// then scaled by ramp.next()) and fills the row's device and force fields (the stage
+/// fills the model's). Call it for every tick in order, with one `ramp` per run. Returns
+/// true when the model's force was non-finite (sent as zero). Does not allocate, lock,
+/// throw or do I/O.
+bool run_force_stage(ForceStage& stage, const TraceDevice& device, std::size_t tick,
+                     const DeviceLimits& limits, ForceRamp& ramp, TickRecord& row);
 
 /// Called now and then with (ticks done, ticks total).
 using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 
-/// Runs every tick of `device` through `model` on the simulated clock, appending a row per
+/// Runs every tick of `device` through `force` on the simulated clock, appending a row per
 /// tick to `session` (if not null). Does not close the session.
 ///
-/// With `sculpt`, each tick runs, in this fixed order: the force stage (which may emit a
-/// surface change into the channel), the relaxation stage (run_relax_stage: at most
-/// max_deletions_per_tick queued deletions, then at most relax_voxels_per_tick relaxation
-/// steps), and the publication of changed voxels into
-/// the field the force model reads. Results are bit-reproducible.
-/// Lockstep rendering: `frame` is called every `every_ticks` ticks (and after the last)
-/// with the tool pose of that tick; `voxel_changed` for every voxel the relaxation changed,
-/// as it is published to the force model's field, so a renderer's copy stays in step.
-struct LockstepRender {
-  std::size_t every_ticks = 100;
-  std::function<void(std::size_t tick, const RenderToolState& tool)> frame;
-  std::function<void(const openvdb::Coord& ijk, float density)> voxel_changed;
-};
-
-ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
-                              const DeviceLimits& limits, SessionWriter* session,
-                              const ProgressFn& progress = {}, SculptContext* sculpt = nullptr,
+/// With a `background` stage, each tick runs, in this fixed order: the force stage (which
+/// may hand a change to the background stage), the background stage's fixed work for one
+/// tick (BackgroundStage::run_lockstep_tick, which publishes its results to the force
+/// stage and to `render`), and every `render->every_ticks` ticks a frame. After the last
+/// tick the background stage finishes its queued work and `sculpt_summary` (if not null)
+/// gets what it did. Results are bit-reproducible.
+ReplaySummary replay_lockstep(ForceStage& force, BackgroundStage* background,
+                              const TraceDevice& device, const DeviceLimits& limits,
+                              SessionWriter* session, const ProgressFn& progress = {},
                               SculptSummary* sculpt_summary = nullptr,
                               const LockstepRender* render = nullptr);
-
-/// Percentile (0..100) of a sample by nearest rank; 0 for an empty sample.
-double percentile(std::vector<double> values, double pct);
 
 }  // namespace hapvox::haptics

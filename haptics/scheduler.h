@@ -37,6 +37,9 @@ struct SchedulerReport {
 
 /// Process-wide steps (memory lock); call on the main thread before starting the loop.
 void prepare_process(const SchedulerOptions& options, SchedulerReport& report);
+
+/// CPU time of the calling thread, seconds (CLOCK_THREAD_CPUTIME_ID).
+double thread_cpu_s();
 /// Undoes prepare_process (unlocks memory) after the loop.
 void release_process(const SchedulerReport& report);
 /// Per-thread steps (timer slack, policy, affinity); call on the force thread itself.

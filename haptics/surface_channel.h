@@ -18,7 +18,7 @@
 #include <atomic>
 #include <cstdint>
 
-#include "engine/tool_force.h"
+#include "engine/surface_change.h"
 
 namespace hapvox::haptics {
 

@@ -8,6 +8,7 @@
 
 #include "engine/errors.h"
 #include "engine/relax.h"
+#include "haptics/voxel_model.h"
 #include "tools/cli.h"
 #include "tools/render_output.h"
 

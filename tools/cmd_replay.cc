@@ -11,6 +11,7 @@
 
 #include "engine/errors.h"
 #include "haptics/realtime.h"
+#include "haptics/voxel_model.h"
 #include "tools/cli.h"
 #include "tools/render_output.h"
 
@@ -186,17 +187,6 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   session.set_attribute("volume_dims", field.dims().cast<double>().eval());
   session.set_attribute("voxel_size_mm", field.voxel_size_mm());
   session.set_attribute("volume_origin_mm", field.origin_mm());
-  session.set_attribute("youngs_modulus_pa", model.options().material.youngs_modulus_pa);
-  session.set_attribute("poisson_ratio", model.options().material.poisson_ratio);
-  session.set_attribute("lame_lambda_pa", model.lame().lambda_pa);
-  session.set_attribute("lame_mu_pa", model.lame().mu_pa);
-  session.set_attribute("tool_diameter_mm", model.options().tool.diameter_mm);
-  session.set_attribute("contact_law",
-                        std::string(engine::contact_law_name(model.options().contact_law)));
-  session.set_attribute("reference_length_mm", model.fixed_reference_length_mm());
-  session.set_attribute("surface_density", model.options().surface_density);
-  session.set_attribute("slip_ratio", model.options().slip_ratio);
-  session.set_attribute("surface_samples", std::int64_t{model.surface_sample_count()});
   session.set_attribute("loop_rate_hz", device.rate_hz());
   session.set_attribute("clock", std::string(f.realtime ? "realtime" : "lockstep"));
   session.set_attribute("max_gap_s", f.trace.max_gap_s);
@@ -223,26 +213,26 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     session.set_attribute("normal_density_units",
                           std::int64_t{engine::normal_density_units(f.normal_density)});
   }
+  // The voxel model's stages (haptics/voxel_model.h); the loops see only their seams.
   std::unique_ptr<engine::MassGrid> mass;
   haptics::SurfaceChangeChannel channel;
-  haptics::SculptContext sculpt;
+  haptics::VoxelForceStage force(model, f.plastic ? &channel : nullptr, buffers.get());
+  std::unique_ptr<haptics::RelaxationStage> relaxation;
   haptics::SculptSummary sculpted;
-  haptics::RealtimeSculpt realtime_sculpt;
   haptics::TimingSummary timing;
   if (f.plastic) {
     engine::RelaxOptions relax_options;
     relax_options.tolerance = f.relax_tolerance;
     relax_options.normal_density = f.normal_density;
     mass = std::make_unique<engine::MassGrid>(field, relax_options);
-    sculpt.mass = mass.get();
-    sculpt.mirror = &field;
-    sculpt.channel = &channel;
-    sculpt.relax_voxels_per_tick = f.relax_voxels_per_tick;
-    realtime_sculpt.mass = mass.get();
-    realtime_sculpt.field = buffers.get();
-    realtime_sculpt.channel = &channel;
-    realtime_sculpt.relax_voxels_per_slice = f.relax_voxels_per_tick;
+    haptics::RelaxBudget budget;
+    budget.relax_voxels = f.relax_voxels_per_tick;
+    relaxation =
+        f.realtime
+            ? std::make_unique<haptics::RelaxationStage>(*mass, channel, *buffers, budget)
+            : std::make_unique<haptics::RelaxationStage>(*mass, channel, field, force, budget);
   }
+  force.write_attributes(session);
   const bool show_progress = !f.quiet && isatty(STDERR_FILENO) && device.tick_count() >= 2000;
   haptics::ReplaySummary s;
   try {
@@ -259,9 +249,8 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
         realtime_options.render_loop = recorder->realtime_loop(f.render_fps);
         realtime_options.scheduler.lock_future_memory = false;
       }
-      s = haptics::replay_realtime(model, device, f.limits, &session, progress,
-                                   f.plastic ? &realtime_sculpt : nullptr, &sculpted, &timing,
-                                   realtime_options);
+      s = haptics::replay_realtime(force, relaxation.get(), device, f.limits, &session, progress,
+                                   &sculpted, &timing, realtime_options);
     } else {
       haptics::LockstepRender render;
       render.every_ticks = f.render_every_ticks;
@@ -273,9 +262,8 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
           recorder->set_voxel(ijk, rho);
         };
       }
-      s = haptics::replay_lockstep(model, device, f.limits, &session, progress,
-                                   f.plastic ? &sculpt : nullptr, &sculpted,
-                                   recorder ? &render : nullptr);
+      s = haptics::replay_lockstep(force, relaxation.get(), device, f.limits, &session, progress,
+                                   &sculpted, recorder ? &render : nullptr);
     }
   } catch (...) {
     session.abandon();

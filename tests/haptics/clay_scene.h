@@ -7,6 +7,7 @@
 #include "engine/volume_io.h"
 #include "haptics/double_buffered_field.h"
 #include "haptics/realtime.h"
+#include "haptics/voxel_model.h"
 
 namespace hapvox::haptics::fixtures {
 

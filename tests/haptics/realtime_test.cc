@@ -13,6 +13,7 @@
 
 #include "engine/volume_io.h"
 #include "haptics/clay_scene.h"
+#include "haptics/voxel_model.h"
 #include "test_data.h"
 
 // Counts allocations per thread, so a test can prove a thread allocated nothing. (GCC

@@ -9,6 +9,7 @@
 #include "engine/volume_io.h"
 #include "haptics/clay_scene.h"
 #include "haptics/realtime.h"
+#include "haptics/voxel_model.h"
 #include "render/gl_context.h"
 #include "render/volume_renderer.h"
 

@@ -10,6 +10,7 @@
 
 #include "engine/volume_io.h"
 #include "haptics/session.h"
+#include "haptics/voxel_model.h"
 #include "test_data.h"
 
 namespace hapvox::haptics {
@@ -150,7 +151,7 @@ TEST(Replay, AWatchdogTripRampsTheForceDownAndBackWithoutAStep) {
   const engine::ToolForceModel model(field, small_tool());
   const TraceDevice device = press_to_depth(-1.0, 1.0, 1.0);  // pressed and held from 0.1 s
   const DeviceLimits limits;                                  // 10 N, 0.1 s ramp
-  engine::ToolForceState state = model.make_state();
+  VoxelForceStage stage(model);
   ForceRamp ramp(limits, device.rate_hz());
   EXPECT_DOUBLE_EQ(ramp.step(), 0.01);
   const std::size_t trip = 600, steps = 100;
@@ -158,11 +159,11 @@ TEST(Replay, AWatchdogTripRampsTheForceDownAndBackWithoutAStep) {
   std::vector<double> scale;
   for (std::size_t tick = 0; tick < device.tick_count(); ++tick) {
     TickRecord row;
-    run_force_stage(model, device, tick, limits, state, ramp, nullptr, row);
+    run_force_stage(stage, device, tick, limits, ramp, row);
     sent.push_back(row.force_n);
     scale.push_back(row.force_scale);
     bool clamped = false, nonfinite = false;
-    model_force.push_back(safe_force(state.force_n, 1.0, limits, &clamped, &nonfinite));
+    model_force.push_back(safe_force(stage.state().force_n, 1.0, limits, &clamped, &nonfinite));
     if (tick == trip) ramp.trip();  // as the realtime loop does after an overrun
   }
   ASSERT_GT(sent.size(), trip + 2 * steps + 10);
@@ -281,13 +282,6 @@ TEST(Replay, ZeroForceWhileTheTraceNeverTouches) {
   EXPECT_EQ(summary.peak_force_n, 0.0);
 }
 
-TEST(Replay, PercentileByNearestRank) {
-  EXPECT_EQ(percentile({}, 50), 0.0);
-  EXPECT_EQ(percentile({5, 1, 3, 2, 4}, 50), 3.0);
-  EXPECT_EQ(percentile({5, 1, 3, 2, 4}, 100), 5.0);
-  EXPECT_EQ(percentile({5, 1, 3, 2, 4}, 0), 1.0);
-}
-
 }  // namespace
 }  // namespace hapvox::haptics
 
@@ -391,38 +385,6 @@ TEST(Sculpt, LockstepSculptingIsBitIdentical) {
     ASSERT_EQ(a.size(), b.size()) << dataset;
     EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(double))) << dataset;
   }
-}
-
-// The relaxation stage (lockstep tick or realtime slice) does bounded work: at most
-// max_deletions queued changes, the rest left in the channel for the next stage, then at
-// most the relaxation budget; draining at the end applies the rest and lands every flow.
-TEST(Sculpt, RelaxStageAppliesAtMostItsDeletionsAndRelaxesWithinItsBudget) {
-  engine::MassGrid mass(engine::generate_volume("block:dims=48"));  // face at z = 23.5
-  const std::int64_t before = mass.total_mass_units();
-  SurfaceChangeChannel channel;
-  engine::SurfaceChange change;
-  change.direction = Vec3d(0, 0, -1);
-  change.radius_mm = 4.0;
-  for (int i = 0; i < 20; ++i) {
-    change.from_mm = change.position_mm = Vec3d(14.0 + i, 24.0, 24.0);
-    ASSERT_TRUE(channel.push(change));
-  }
-  std::vector<std::size_t> deletions;
-  for (int stage = 0; stage < 4; ++stage) {
-    const engine::RelaxWork was = mass.work();
-    const RelaxStageWork work = run_relax_stage(mass, channel, 8, 50);
-    deletions.push_back(work.deletions);
-    EXPECT_LE(mass.work().relaxed_voxels - was.relaxed_voxels, 50u);
-    EXPECT_LE(mass.work().flow_visits - was.flow_visits,
-              50u * engine::RelaxOptions{}.flow_visits_per_voxel);
-    EXPECT_EQ(work.relax_steps, (mass.work().relaxed_voxels - was.relaxed_voxels) +
-                                    (mass.work().flow_visits - was.flow_visits));
-    EXPECT_EQ(mass.total_mass_units(), before);
-  }
-  EXPECT_EQ(deletions, (std::vector<std::size_t>{8, 8, 4, 0}));
-  drain_relaxation(mass, channel);
-  EXPECT_EQ(mass.flowing_units(), 0);
-  EXPECT_EQ(mass.total_mass_units(), before);
 }
 
 TEST(SurfaceChannel, OverflowCoalescesIntoOneSweepAndLosesNothing) {

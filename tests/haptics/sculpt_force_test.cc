@@ -14,6 +14,7 @@
 #include "engine/volume_io.h"
 #include "haptics/replay.h"
 #include "haptics/session.h"
+#include "haptics/voxel_model.h"
 #include "test_data.h"
 
 namespace hapvox::haptics {

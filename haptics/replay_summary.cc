@@ -1,0 +1,67 @@
+#include "haptics/replay_summary.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/check.h"
+#include "haptics/replay.h"
+
+namespace hapvox::haptics {
+
+double percentile(std::vector<double> values, double pct) {
+  if (values.empty()) return 0.0;
+  const std::size_t rank = static_cast<std::size_t>(
+      std::ceil(std::clamp(pct, 0.0, 100.0) / 100.0 * static_cast<double>(values.size())));
+  const std::size_t index = rank == 0 ? 0 : rank - 1;
+  std::nth_element(values.begin(), values.begin() + index, values.end());
+  return values[index];
+}
+
+DurationStats duration_stats(const std::vector<double>& values_us) {
+  DurationStats stats;
+  stats.count = values_us.size();
+  if (values_us.empty()) return stats;
+  stats.p50_us = percentile(values_us, 50.0);
+  stats.p99_us = percentile(values_us, 99.0);
+  stats.p999_us = percentile(values_us, 99.9);
+  stats.max_us = *std::max_element(values_us.begin(), values_us.end());
+  return stats;
+}
+
+SummaryBuilder::SummaryBuilder(const TraceDevice& device) : rate_hz_(device.rate_hz()) {
+  summary_.ticks = device.tick_count();
+  summary_.trace_gaps = device.trace().gap_count;
+  summary_.trace_held_s = device.trace().held_time_s;
+  if (summary_.ticks > 0) {
+    summary_.duration_s = device.time_s(summary_.ticks - 1) - device.time_s(0);
+  }
+  compute_us_.reserve(summary_.ticks);
+}
+
+void SummaryBuilder::add(const TickRecord& row, bool nonfinite) {
+  compute_us_.push_back(1e-3 * static_cast<double>(row.compute_ns));
+  summary_.contact_ticks += row.contact;
+  summary_.clamped_ticks += row.clamped;
+  summary_.nonfinite_forces += nonfinite ? 1 : 0;
+  summary_.peak_force_n = std::max(summary_.peak_force_n, row.force_n.norm());
+  summary_.plastic_events += row.plastic_event;
+  summary_.max_queue_depth =
+      std::max(summary_.max_queue_depth, static_cast<std::size_t>(row.queue_depth));
+}
+
+ReplaySummary SummaryBuilder::finish(std::uint64_t stage_nonfinite_forces,
+                                     std::uint64_t contact_onsets) {
+  HAPVOX_CHECK_EQ(compute_us_.size(), summary_.ticks);
+  ReplaySummary summary = summary_;
+  summary.contact_time_s = static_cast<double>(summary.contact_ticks) / rate_hz_;
+  summary.contact_onsets = contact_onsets;
+  summary.nonfinite_forces += stage_nonfinite_forces;
+  summary.compute_p50_us = percentile(compute_us_, 50.0);
+  summary.compute_p99_us = percentile(compute_us_, 99.0);
+  if (!compute_us_.empty()) {
+    summary.compute_max_us = *std::max_element(compute_us_.begin(), compute_us_.end());
+  }
+  return summary;
+}
+
+}  // namespace hapvox::haptics

@@ -1,0 +1,285 @@
+#include "haptics/voxel_model.h"
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include "engine/check.h"
+#include "haptics/scheduler.h"
+
+namespace hapvox::haptics {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+engine::ToolForceState make_force_state(const engine::ToolForceModel& model,
+                                        DoubleBufferedField* buffers) {
+  if (buffers == nullptr) return model.make_state();
+  HAPVOX_CHECK(&model.field() == &buffers->buffer(0));
+  return model.make_state(buffers->buffer(1));
+}
+
+std::int64_t ns_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count();
+}
+
+}  // namespace
+
+// --- Force stage ---
+
+VoxelForceStage::VoxelForceStage(const engine::ToolForceModel& model, SurfaceChangeChannel* channel,
+                                 DoubleBufferedField* buffers)
+    : model_(model),
+      channel_(channel),
+      buffers_(buffers),
+      state_(make_force_state(model, buffers)) {}
+
+void VoxelForceStage::acquire_published() noexcept {
+  if (buffers_ != nullptr) state_.read_from(buffers_->acquire_for_reading());
+}
+
+Vec3d VoxelForceStage::step(const Vec3d& tool_center_mm, TickRecord& row) noexcept {
+  model_.step(tool_center_mm, state_);
+  row.displacement_mm = state_.displacement_mm;
+  row.contact_area_mm2 = state_.contact.contact_area_mm2;
+  row.contact = state_.in_contact ? 1 : 0;
+  row.strain = state_.strain;
+  row.stress_measure_pa = state_.stress_measure_pa;
+  row.zone = static_cast<std::uint8_t>(state_.zone);
+  row.plastic_event = state_.surface_change_emitted ? 1 : 0;
+  if (channel_ != nullptr) {
+    if (state_.surface_change_emitted) {
+      channel_->push(state_.surface_change);
+    } else {
+      channel_->flush();
+    }
+    row.queue_depth = channel_->depth();
+  }
+  return state_.force_n;
+}
+
+bool VoxelForceStage::flush_handoffs() noexcept { return channel_ == nullptr || channel_->flush(); }
+
+ForceStageCounters VoxelForceStage::counters() const noexcept {
+  return ForceStageCounters{state_.contact_onsets, state_.nonfinite_forces};
+}
+
+void VoxelForceStage::write_attributes(SessionWriter& session) const {
+  const engine::ToolForceOptions& o = model_.options();
+  session.set_attribute("model", std::string("voxel"));
+  session.set_attribute("youngs_modulus_pa", o.material.youngs_modulus_pa);
+  session.set_attribute("poisson_ratio", o.material.poisson_ratio);
+  session.set_attribute("lame_lambda_pa", model_.lame().lambda_pa);
+  session.set_attribute("lame_mu_pa", model_.lame().mu_pa);
+  session.set_attribute("tool_diameter_mm", o.tool.diameter_mm);
+  session.set_attribute("contact_law", std::string(engine::contact_law_name(o.contact_law)));
+  session.set_attribute("reference_length_mm", model_.fixed_reference_length_mm());
+  session.set_attribute("surface_density", o.surface_density);
+  session.set_attribute("slip_ratio", o.slip_ratio);
+  session.set_attribute("surface_samples", std::int64_t{model_.surface_sample_count()});
+}
+
+// --- Relaxation ---
+
+RelaxStageWork run_relax_stage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
+                               std::size_t max_deletions, std::size_t relax_budget) {
+  RelaxStageWork work;
+  engine::SurfaceChange change;
+  while (work.deletions < max_deletions && channel.pop(change)) {
+    mass.apply_deletion(change);
+    ++work.deletions;
+  }
+  work.relax_steps = mass.relax(relax_budget);
+  return work;
+}
+
+void drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel) {
+  engine::SurfaceChange change;
+  while (channel.pop(change)) mass.apply_deletion(change);
+  mass.finish_flows();
+}
+
+RelaxationStage::RelaxationStage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
+                                 engine::DensityField& mirror, VoxelForceStage& force,
+                                 const RelaxBudget& budget)
+    : mass_(mass), channel_(channel), mirror_(&mirror), force_(&force), budget_(budget) {
+  HAPVOX_CHECK(&force.model().field() == &mirror);
+}
+
+RelaxationStage::RelaxationStage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
+                                 DoubleBufferedField& buffers, const RelaxBudget& budget)
+    : mass_(mass), channel_(channel), buffers_(&buffers), budget_(budget) {}
+
+void RelaxationStage::begin() {
+  initial_mass_units_ = mass_.total_mass_units();
+  mass_units_ = initial_mass_units_;
+  published_mass_units_.store(initial_mass_units_, std::memory_order_relaxed);
+}
+
+std::size_t RelaxationStage::publish_lockstep(const LockstepRender* render) {
+  if (render == nullptr || !render->voxel_changed) return mass_.publish_changes(*mirror_);
+  mass_.take_changes(changed_);
+  auto out = mirror_->mutable_grid().getAccessor();
+  for (const openvdb::Coord& ijk : changed_) {
+    const float rho = mass_.density(ijk);
+    if (rho == 0.0f) {
+      out.setValueOff(ijk, 0.0f);
+    } else {
+      out.setValueOn(ijk, rho);
+    }
+    render->voxel_changed(ijk, rho);
+  }
+  return changed_.size();
+}
+
+void RelaxationStage::run_lockstep_tick(std::size_t tick, TickRecord& row,
+                                        const LockstepRender* render) {
+  HAPVOX_CHECK(mirror_ != nullptr);
+  // Deletions first (highest priority), then a fixed budget.
+  const engine::RelaxWork before = mass_.work();
+  run_relax_stage(mass_, channel_, budget_.max_deletions, budget_.relax_voxels);
+  if (publish_lockstep(render) > 0) force_->state().invalidate_cache();
+  row.deleted_voxels =
+      static_cast<std::int64_t>(mass_.work().deleted_voxels - before.deleted_voxels);
+  row.relaxed_voxels =
+      static_cast<std::int64_t>(mass_.work().relaxed_voxels - before.relaxed_voxels);
+  if (budget_.mass_every_ticks > 0 && tick % budget_.mass_every_ticks == 0) {
+    mass_units_ = mass_.total_mass_units();
+  }
+  row.total_mass_units = mass_units_;
+}
+
+// It works in bounded slices while there is work (queued deletions, voxels to relax, a
+// flow in flight, changes to publish or to hand to the renderer) and sleeps in the
+// channel's wait_for_arrival() when there is none: an idle thread costs no CPU and wakes
+// on the force thread's next push (or its end), not on a timer.
+void RelaxationStage::run_realtime(const std::atomic<bool>& force_done, Clock::time_point start,
+                                   RenderFeed* feed, BackgroundTiming& timing) {
+  HAPVOX_CHECK(buffers_ != nullptr);
+  const double cpu_start = thread_cpu_s();
+  std::vector<openvdb::Coord> published;
+  auto last_mass = Clock::now();
+  bool mass_stale = false;  // work done since the last exact mass measurement
+  while (true) {
+    // Arrivals before force_done: a push or the end announced after these loads bumps
+    // the count, so the wait below returns at once instead of sleeping through it.
+    const std::uint32_t arrivals = channel_.arrivals();
+    const bool finishing = force_done.load(std::memory_order_acquire);
+    const auto slice_begin = Clock::now();
+    const RelaxStageWork work =
+        run_relax_stage(mass_, channel_, budget_.max_deletions, budget_.relax_voxels);
+    timing.slice_max_deletions = std::max(timing.slice_max_deletions, work.deletions);
+    timing.slice_max_steps = std::max(timing.slice_max_steps, work.relax_steps);
+    const std::size_t did = work.deletions + work.relax_steps;
+    mass_stale = mass_stale || did > 0;
+    if (mass_.has_changes()) {
+      buffers_->publish(mass_, force_done, feed != nullptr ? &published : nullptr);
+    }
+    if (feed != nullptr && (!published.empty() || !feed->voxels.drained_backlog())) {
+      feed->voxels.offer(published, mass_);
+      published.clear();
+    }
+    deleted_.store(mass_.work().deleted_voxels, std::memory_order_relaxed);
+    relaxed_.store(mass_.work().relaxed_voxels, std::memory_order_relaxed);
+    // The exact mass (a pass over the whole grid) is measured every ~50 ms while the grid
+    // changes, and once more when it stops: never while nothing moves.
+    const bool idle =
+        did == 0 && !mass_.has_changes() && (feed == nullptr || feed->voxels.drained_backlog());
+    if (mass_stale && (idle || Clock::now() - last_mass > std::chrono::milliseconds(50))) {
+      published_mass_units_.store(mass_.total_mass_units(), std::memory_order_relaxed);
+      last_mass = Clock::now();
+      mass_stale = false;
+    }
+    if (did > 0) {
+      timing.slice_start_ns.push_back(ns_between(start, slice_begin));
+      timing.slice_ns.push_back(ns_between(slice_begin, Clock::now()));
+    }
+    if (finishing) break;
+    if (idle) {
+      channel_.wait_for_arrival(arrivals);
+    } else if (did == 0) {
+      // Waiting on the renderer's queue or the reader's buffer switch: poll gently.
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+  }
+  timing.cpu_s = thread_cpu_s() - cpu_start;
+}
+
+void RelaxationStage::fill_realtime_row(TickRecord& row) noexcept {
+  const std::uint64_t deleted = deleted_.load(std::memory_order_relaxed);
+  const std::uint64_t relaxed = relaxed_.load(std::memory_order_relaxed);
+  row.deleted_voxels = static_cast<std::int64_t>(deleted - deleted_seen_);
+  row.relaxed_voxels = static_cast<std::int64_t>(relaxed - relaxed_seen_);
+  deleted_seen_ = deleted;
+  relaxed_seen_ = relaxed;
+  row.total_mass_units = published_mass_units_.load(std::memory_order_relaxed);
+}
+
+SculptSummary RelaxationStage::finish(const LockstepRender* render, RenderFeed* feed,
+                                      const std::atomic<bool>* render_finished) {
+  drain_relaxation(mass_, channel_);
+  if (mirror_ != nullptr) {
+    publish_lockstep(render);
+  } else {
+    // No reader left: both buffers brought up to date; the render thread (still running)
+    // drains the voxel queue, for which this thread is the producer now.
+    std::vector<openvdb::Coord> published;
+    buffers_->publish_unsynchronized(mass_, feed != nullptr ? &published : nullptr);
+    if (feed != nullptr) {
+      feed->voxels.offer(published, mass_);
+      while (!feed->voxels.drained_backlog() &&
+             (render_finished == nullptr || !render_finished->load(std::memory_order_acquire))) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        feed->voxels.offer({}, mass_);
+      }
+    }
+  }
+  SculptSummary summary;
+  summary.queue_overflows = channel_.overflows();
+  summary.deleted_voxels = mass_.work().deleted_voxels;
+  summary.relaxed_voxels = mass_.work().relaxed_voxels;
+  summary.initial_mass_units = initial_mass_units_;
+  summary.final_mass_units = mass_.total_mass_units();
+  summary.settled = mass_.settled();
+  return summary;
+}
+
+// --- Entry points ---
+
+ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress, SculptContext* sculpt,
+                              SculptSummary* sculpt_summary, const LockstepRender* render) {
+  if (sculpt == nullptr) {
+    VoxelForceStage force(model);
+    return replay_lockstep(force, nullptr, device, limits, session, progress, nullptr, render);
+  }
+  HAPVOX_CHECK(sculpt->mass != nullptr && sculpt->mirror != nullptr && sculpt->channel != nullptr);
+  VoxelForceStage force(model, sculpt->channel);
+  RelaxationStage relaxation(*sculpt->mass, *sculpt->channel, *sculpt->mirror, force,
+                             RelaxBudget{sculpt->relax_voxels_per_tick,
+                                         sculpt->max_deletions_per_tick, sculpt->mass_every_ticks});
+  return replay_lockstep(force, &relaxation, device, limits, session, progress, sculpt_summary,
+                         render);
+}
+
+ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDevice& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress, RealtimeSculpt* sculpt,
+                              SculptSummary* sculpt_summary, TimingSummary* timing,
+                              const RealtimeOptions& options) {
+  if (sculpt == nullptr) {
+    VoxelForceStage force(model);
+    return replay_realtime(force, nullptr, device, limits, session, progress, nullptr, timing,
+                           options);
+  }
+  HAPVOX_CHECK(sculpt->mass != nullptr && sculpt->field != nullptr && sculpt->channel != nullptr);
+  VoxelForceStage force(model, sculpt->channel, sculpt->field);
+  RelaxationStage relaxation(
+      *sculpt->mass, *sculpt->channel, *sculpt->field,
+      RelaxBudget{sculpt->relax_voxels_per_slice, sculpt->max_deletions_per_slice, 0});
+  return replay_realtime(force, &relaxation, device, limits, session, progress, sculpt_summary,
+                         timing, options);
+}
+
+}  // namespace hapvox::haptics
