@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <numbers>
+#include <ostream>
 
 #include "fem_fixtures.h"
 
@@ -105,6 +106,8 @@ struct Mode {
   const char* name;
   int refactor_max_free_dofs;
 };
+
+void PrintTo(const Mode& mode, std::ostream* out) { *out << mode.name; }
 
 class CorotationalModes : public ::testing::TestWithParam<Mode> {};
 
