@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "engine/errors.h"
+#include "fem_fixtures.h"
 
 namespace hapvox::engine::fem {
 namespace {
@@ -25,37 +26,6 @@ void refine_at(BisectionMesh& mesh, const Eigen::Vector3d& point, int rounds) {
     }
     mesh.refine(marked);
   }
-}
-
-double face_area(const TetMesh& mesh, const Triangle& face) {
-  const Eigen::Vector3d a = mesh.rest_mm.col(face[0]);
-  return 0.5 * (mesh.rest_mm.col(face[1]) - a).cross(mesh.rest_mm.col(face[2]) - a).norm();
-}
-
-// The mesh fills the box [lo, hi] without gaps, overlaps or hanging vertices: positive tets
-// whose volumes add up to the box's, and a surface (faces without a twin) that lies on the
-// box's faces and has its area. A hanging vertex leaves unpaired faces inside the box.
-void expect_conforming_box(const TetMesh& mesh, const Eigen::Vector3d& lo,
-                           const Eigen::Vector3d& hi) {
-  const MeshQuality quality = mesh_quality(mesh);
-  const Eigen::Vector3d size = hi - lo;
-  EXPECT_EQ(quality.inverted_tets, 0);
-  EXPECT_NEAR(quality.total_volume_mm3 / size.prod(), 1.0, 1e-12);
-  double area = 0;
-  for (const Triangle& face : boundary_faces(mesh)) {
-    area += face_area(mesh, face);
-    bool on_box = false;
-    for (int axis = 0; axis < 3; ++axis) {
-      for (double plane : {lo[axis], hi[axis]}) {
-        bool all = true;
-        for (int v : face) all = all && std::abs(mesh.rest_mm(axis, v) - plane) < 1e-9;
-        on_box = on_box || all;
-      }
-    }
-    ASSERT_TRUE(on_box) << "a surface face inside the box: a hanging vertex";
-  }
-  const double box_area = 2 * (size.x() * size.y() + size.y() * size.z() + size.z() * size.x());
-  EXPECT_NEAR(area / box_area, 1.0, 1e-12);
 }
 
 TEST(BisectionMesh, StartsAsTheKuhnLattice) {
@@ -98,7 +68,7 @@ TEST(BisectionMesh, LocalRefinementStaysConforming) {
   EXPECT_TRUE(bisection.conforming());
   EXPECT_GT(bisection.tet_count(), before + 10);
   const TetMesh mesh = bisection.to_tet_mesh();
-  expect_conforming_box(mesh, kOrigin, kOrigin + h * Eigen::Vector3d(4, 3, 3));
+  fixtures::expect_conforming_box(mesh, kOrigin, kOrigin + h * Eigen::Vector3d(4, 3, 3));
   // Local: tets far from the point keep their lattice size.
   int coarse = 0;
   for (const BisectionTet& tet : bisection.tets()) coarse += tet.generation == 0;
@@ -115,7 +85,7 @@ TEST(BisectionMesh, EveryDescendantHasTheProvenDihedralRange) {
   const MeshQuality quality = mesh_quality(mesh);
   EXPECT_NEAR(quality.min_dihedral_deg, kBisectionMinDihedralDeg, 1e-9);
   EXPECT_NEAR(quality.max_dihedral_deg, kBisectionMaxDihedralDeg, 1e-9);
-  expect_conforming_box(mesh, kOrigin, kOrigin + Eigen::Vector3d::Constant(6.0));
+  fixtures::expect_conforming_box(mesh, kOrigin, kOrigin + Eigen::Vector3d::Constant(6.0));
 }
 
 TEST(BisectionMesh, IsDeterministic) {
