@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "engine/errors.h"
+#include "engine/fem/conforming_mesh.h"
 #include "fem_fixtures.h"
 
 namespace hapvox::engine::fem {
@@ -254,6 +255,73 @@ TEST(LinearFem, BadMaterialNamesTheTet) {
     FAIL() << "nu = 0.5 was accepted";
   } catch (const InputError& error) {
     EXPECT_EQ(error.source(), "tet 9 (label 0)");
+  }
+}
+
+// Volume-weighted mean of |strain| (Frobenius) over the tets labelled `label`.
+double mean_strain(const LinearFem& fem, const Eigen::VectorXd& u, std::int32_t label) {
+  double sum = 0, volume = 0;
+  for (int t = 0; t < fem.mesh().tet_count(); ++t) {
+    if (fem.mesh().labels[t] != label) continue;
+    const TetShape& shape = fem.shape(t);
+    Eigen::Matrix3d gradient = Eigen::Matrix3d::Zero();
+    for (int a = 0; a < 4; ++a) {
+      gradient +=
+          u.segment<3>(3 * fem.mesh().tets[t][a]) * shape.gradients_per_mm.col(a).transpose();
+    }
+    sum += shape.volume_mm3 * (0.5 * (gradient + gradient.transpose())).norm();
+    volume += shape.volume_mm3;
+  }
+  return sum / volume;
+}
+
+TEST(LinearFem, HardSphereInAConformingMeshBarelyStrainsUnderAPull) {
+  // A first Fig. 5-like check: a sphere (label 1) in a soft cube (label 0), the left face
+  // held, the right face pulled 1 % along x. For a stiff spherical inclusion Eshelby's
+  // solution gives the inside strain as 1 / (1 + beta (E_in / E_out - 1)) of the far field,
+  // beta = 2 (4 - 5 nu) / (15 (1 - nu)) = 0.476 for the shear part at nu = 0.3 (0.62 for
+  // the volumetric part): about 2 % of the soft strain at 100x, 0.2 % at 1000x.
+  const double side = 32, radius = 6;
+  const Eigen::Vector3d center(16.1, 15.9, 16.2);
+  const LabelFunction label = [&](const Eigen::Vector3d& x) -> std::int32_t {
+    return (x - center).squaredNorm() < radius * radius ? 1 : 0;
+  };
+  ConformingMeshOptions options;
+  options.box_mm = Eigen::AlignedBox3d(Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(side));
+  options.coarse_spacing_mm = 4;
+  options.boundary_levels = 1;
+  const ConformingMesh built = build_conforming_mesh(options, label);
+  const TetMesh& mesh = built.mesh;
+  const Eigen::AlignedBox3d left(Eigen::Vector3d(-1, -1, -1),
+                                 Eigen::Vector3d(0, side + 1, side + 1));
+  const std::vector<VertexClass> classes = classify_vertices(mesh, {}, {left});
+  std::vector<int> fixed, right;
+  for (int v = 0; v < mesh.vertex_count(); ++v) {
+    if (classes[v] == VertexClass::kFixed) fixed.push_back(v);
+    if (mesh.rest_mm(0, v) == side) right.push_back(v);
+  }
+  std::vector<int> constrained = vertex_dofs(fixed);
+  for (int dof : axis_dofs(right, 0)) constrained.push_back(dof);
+  const double pull_mm = 0.01 * side;
+  Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(3 * mesh.vertex_count());
+  for (int v : right) prescribed[dof_index(v, 0)] = pull_mm;
+  const Eigen::VectorXd no_loads = Eigen::VectorXd::Zero(prescribed.size());
+  const TetMaterial soft{1e6, 0.3};
+  for (const double contrast : {1.0, 100.0, 1000.0}) {
+    const std::map<std::int32_t, TetMaterial> by_label = {{0, soft}, {1, {contrast * 1e6, 0.3}}};
+    const LinearFem fem(mesh, materials_from_labels(mesh, by_label), constrained);
+    const Eigen::VectorXd u = fem.solve_mm(no_loads, prescribed);
+    const double ratio = mean_strain(fem, u, 1) / mean_strain(fem, u, 0);
+    std::printf("E x%g: %d vertices, %d tets; hard/soft mean strain %.4f\n", contrast,
+                mesh.vertex_count(), mesh.tet_count(), ratio);
+    if (contrast == 1.0) {
+      EXPECT_GT(ratio, 0.8);  // homogeneous: the sphere strains like the rest
+    } else if (contrast == 100.0) {
+      EXPECT_GT(ratio, 0.01);  // Eshelby: about 2 %, not 1 %
+      EXPECT_LT(ratio, 0.03);
+    } else {
+      EXPECT_LE(ratio, 0.01);
+    }
   }
 }
 
