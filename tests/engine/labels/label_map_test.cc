@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -131,6 +132,27 @@ TEST(RegionGrowing, ToleranceDecidesWhatTheRegionTakesAndEarlierSeedsKeepTheirs)
   EXPECT_EQ(counts.count(3), 0u);  // its voxel was the first seed's already
 }
 
+RawVolume volume(const Vec3i& dims, const Vec3d& spacing, std::vector<float> values) {
+  RawVolume v;
+  v.dims = dims;
+  v.spacing_mm = spacing;
+  v.intensity = std::move(values);
+  return v;
+}
+
+TEST(RegionGrowing, TakesSixNeighboursWithinTheToleranceInclusive) {
+  // A row 0 1 2 3 1 from a seed at the first 1 with tolerance 1: 0, 1 and 2 are within it
+  // (|I - 1| <= 1, the bound included); 3 is not, and the last 1 lies beyond it.
+  const RawVolume row = volume(Vec3i(5, 1, 1), Vec3d::Ones(), {0, 1, 2, 3, 1});
+  LabelMap map = LabelMap::like(row);
+  EXPECT_EQ(grow_region(map, row, Seed{Vec3d(1.0, 0.0, 0.0), 4}, 1.0, "seeds"), 3);
+  EXPECT_EQ(map.data(), (std::vector<Label>{4, 4, 4, 0, 0}));
+  // Diagonal neighbours are not connected: of two 5s touching at a corner, one grows.
+  const RawVolume plane = volume(Vec3i(3, 3, 1), Vec3d::Ones(), {5, 0, 0, 0, 5, 0, 0, 0, 0});
+  LabelMap diagonal = LabelMap::like(plane);
+  EXPECT_EQ(grow_region(diagonal, plane, Seed{Vec3d(0.0, 0.0, 0.0), 1}, 0.0, "seeds"), 1);
+}
+
 TEST(RegionGrowing, SeedOutsideTheVolumeIsAnInputError) {
   const RawVolume intensity = dense_intensity(generate_volume("four-spheres:dims=16"));
   EXPECT_EQ(input_error_of([&] {
@@ -163,6 +185,11 @@ TEST(IntensityRanges, GiveTheSameLabelsAsRegionGrowingAndFirstMatchWins) {
   EXPECT_EQ(counts.count(1), 0u);
   EXPECT_EQ(counts.at(7),
             phantom.lattice_count(0) + phantom.lattice_count(1) + phantom.lattice_count(2));
+
+  // Both ends are inclusive: a range of one value takes exactly the voxels holding it.
+  const double blue = FourSpheres::density(0);
+  const LabelMap exact = labels_from_intensity_ranges(intensity, {{1, blue, blue}});
+  EXPECT_EQ(exact.voxel_counts().at(1), phantom.lattice_count(0));
 }
 
 // ---- label volumes ----------------------------------------------------------------------
@@ -286,6 +313,39 @@ TEST(Picking, AnAxisRayHitsTheFirstSphereAtItsEntry) {
   EXPECT_FALSE(pick_voxel(intensity, origin, Vec3d(1.0, 0.0, 0.0), [](float) { return 0.0f; }));
   EXPECT_FALSE(pick_voxel(intensity, origin, Vec3d(-1.0, 0.0, 0.0), solid));  // points away
   EXPECT_FALSE(pick_voxel(intensity, Vec3d(-5.0, -5.0, 10.0), Vec3d(1.0, 0.0, 0.0), solid));
+}
+
+TEST(Picking, OpacityIsPerVoxelOfPathAlongAnyDirection) {
+  // A uniform volume with opacity 0.1 per smallest spacing (0.5 mm): after a path of L mm
+  // inside, 1 - 0.9^(L / 0.5) is accumulated, so 0.5 is reached at L = 0.5 ln 0.5 / ln 0.9.
+  const Vec3i dims(24, 12, 6);
+  const Vec3d spacing(0.5, 1.0, 2.0);
+  const RawVolume uniform = volume(dims, spacing, std::vector<float>(24 * 12 * 6, 1.0f));
+  const double path_mm = 0.5 * std::log(0.5) / std::log(0.9);
+  const auto faint = [](float) { return 0.1f; };
+  // From outside the box's low corner at (-0.25, -0.5, -1) mm, or beside it along x.
+  const std::vector<std::pair<Vec3d, Vec3d>> rays = {
+      {Vec3d(-1.03, 3.2, 4.1), Vec3d(1.0, 0.0, 0.0)},
+      {Vec3d(-1.03, -0.97, -1.1), Vec3d(1.0, 0.7, 0.3)},
+      {Vec3d(-1.03, -0.97, -1.1), Vec3d(0.2, 0.9, 0.6)}};
+  for (const auto& [origin, direction] : rays) {
+    const Vec3d u = direction.normalized();
+    // The ray enters the box at the largest of the per-axis entry distances.
+    double t_in = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      if (u[a] > 0.0) t_in = std::max(t_in, (-0.5 * spacing[a] - origin[a]) / u[a]);
+    }
+    const Vec3d crossing = origin + (t_in + path_mm) * u;
+    const Vec3i expected = (crossing.cwiseQuotient(spacing).array() + 0.5).floor().cast<int>();
+    const auto hit = pick_voxel(uniform, origin, direction, faint);
+    ASSERT_TRUE(hit) << direction.transpose();
+    EXPECT_EQ(hit->voxel, expected) << direction.transpose();
+    EXPECT_LE(hit->depth_mm, t_in + path_mm) << direction.transpose();
+    EXPECT_GE(hit->accumulated_opacity, 0.5) << direction.transpose();
+    // What the voxel's own segment added: no more than its longest chord allows.
+    const double before = 1.0 - std::pow(0.9, (hit->depth_mm - t_in) / 0.5);
+    EXPECT_LT(before, 0.5) << direction.transpose();
+  }
 }
 
 TEST(Picking, AnObliqueRayHitsWithinOneVoxelOfTheAnalyticEntry) {

@@ -147,6 +147,9 @@ TEST(Materials, EachBadFileGivesItsOneLine) {
        "m.toml:4: Poisson's ratio must lie in (-1, 0.5), got -1"},
       {"[[material]]\nlabel = 1\nyoungs_modulus_pa = 1e6\npoisson_ratio = nan\n",
        "m.toml:4: Poisson's ratio must lie in (-1, 0.5), got nan"},
+      // Of two problems, the first in the file is reported (toml++ keeps keys sorted).
+      {"[[material]]\nyoungs_modulus_pa = \"x\"\nlabel = 1.5\n",
+       "m.toml:2: youngs_modulus_pa must be a number, got a string"},
       // Duplicates and unknown keys.
       {ok + "\n" + ok, "m.toml:7: label 1 is given twice (first at line 1)"},
       {"[[material]]\nlabel = 1\nyoungs_modulus = 1e6\n",
