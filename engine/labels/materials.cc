@@ -258,6 +258,14 @@ std::vector<IntensityRange> Materials::intensity_ranges() const {
   return ranges;
 }
 
+std::set<Label> Materials::fixed_labels() const {
+  std::set<Label> labels;
+  for (const Material& m : materials) {
+    if (m.fixed) labels.insert(m.label);
+  }
+  return labels;
+}
+
 Materials parse_materials(std::string_view text, const std::string& source) {
   const Reporter r(source);
   toml::table root;

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -60,6 +61,8 @@ struct Materials {
   const Material* find(Label label) const;
   /// The intensity ranges the file gives, in file order (for labels_from_intensity_ranges).
   std::vector<IntensityRange> intensity_ranges() const;
+  /// The labels whose material is fixed.
+  std::set<Label> fixed_labels() const;
 };
 
 /// Parses a materials file's text; `source` names it in errors.

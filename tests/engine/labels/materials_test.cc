@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -67,6 +68,7 @@ TEST(Materials, ParsesEveryKey) {
   EXPECT_EQ(m.find(3), nullptr);
   ASSERT_EQ(m.intensity_ranges().size(), 1u);
   EXPECT_EQ(m.intensity_ranges()[0].label, 7);
+  EXPECT_EQ(m.fixed_labels(), std::set<Label>{7});
   ASSERT_EQ(m.fixed_regions.size(), 1u);
   EXPECT_EQ(m.fixed_regions[0].side, FixedRegion::Side::kNone);
   EXPECT_FALSE(m.fixed_regions[0].label);
