@@ -53,7 +53,8 @@ ReplaySummary SummaryBuilder::finish(std::uint64_t stage_nonfinite_forces,
                                      std::uint64_t contact_onsets) {
   HAPVOX_CHECK_EQ(compute_us_.size(), summary_.ticks);
   ReplaySummary summary = summary_;
-  summary.contact_time_s = static_cast<double>(summary.contact_ticks) / rate_hz_;
+  // Ticks times the period, as the lockstep loop always computed it (bit for bit).
+  summary.contact_time_s = static_cast<double>(summary.contact_ticks) * (1.0 / rate_hz_);
   summary.contact_onsets = contact_onsets;
   summary.nonfinite_forces += stage_nonfinite_forces;
   summary.compute_p50_us = percentile(compute_us_, 50.0);

@@ -111,6 +111,11 @@ RelaxationStage::RelaxationStage(engine::MassGrid& mass, SurfaceChangeChannel& c
     : mass_(mass), channel_(channel), buffers_(&buffers), budget_(budget) {}
 
 void RelaxationStage::begin() {
+  // A stage may run more than once: the per-row deltas start from this run's totals.
+  deleted_seen_ = mass_.work().deleted_voxels;
+  relaxed_seen_ = mass_.work().relaxed_voxels;
+  deleted_.store(deleted_seen_, std::memory_order_relaxed);
+  relaxed_.store(relaxed_seen_, std::memory_order_relaxed);
   initial_mass_units_ = mass_.total_mass_units();
   mass_units_ = initial_mass_units_;
   published_mass_units_.store(initial_mass_units_, std::memory_order_relaxed);

@@ -76,10 +76,10 @@ class Recorder final : public BackgroundStage {
   }
   void run_realtime(const std::atomic<bool>& force_done, std::chrono::steady_clock::time_point,
                     RenderFeed*, BackgroundTiming& timing) override {
-    while (!force_done.load(std::memory_order_acquire)) {
+    do {  // at least one slice, however late this thread is scheduled
       slices_.fetch_add(1, std::memory_order_relaxed);
       std::this_thread::sleep_for(std::chrono::microseconds(500));
-    }
+    } while (!force_done.load(std::memory_order_acquire));
     timing.cpu_s = 1.0;
   }
   void fill_realtime_row(TickRecord& row) noexcept override { row.total_mass_units = 42; }
