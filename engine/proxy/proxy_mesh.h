@@ -1,0 +1,51 @@
+#pragma once
+// The proxy model of Nakao's direct volume manipulation: a volume's labels turned into an
+// adaptive, label-conforming tet mesh (engine/fem/conforming_mesh.h) with one material per
+// tet from the materials file (engine/labels/materials.h) and a class per vertex (fixed by a
+// fixed label or a fixed region, else free). What the FEM stages (haptics/fem_model.h), the
+// session writer and `hapvox mesh` take. Units: mm, Pa.
+
+#include <cstdint>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "engine/fem/conforming_mesh.h"
+#include "engine/fem/element.h"
+#include "engine/fem/tet_mesh.h"
+#include "engine/labels/label_map.h"
+#include "engine/labels/materials.h"
+
+namespace hapvox::engine::proxy {
+
+/// A built proxy mesh: the mesh, per-tet materials, per-vertex classes and the report.
+struct ProxyMesh {
+  fem::TetMesh mesh;                              // rest positions (world mm), tets, labels
+  std::vector<fem::TetMaterial> materials;        // one per tet, from its label
+  std::vector<fem::VertexClass> vertex_classes;   // kFixed or kFree (kConstrained at run time)
+  fem::ConformingMeshReport report;               // counts, dihedral range, volume errors
+  std::string materials_source;                   // the materials file, as named in errors
+};
+
+/// How the mesh is built over the label map.
+struct ProxyMeshOptions {
+  /// The lattice spacing; 0 picks one: the box's shortest side / 8.
+  double coarse_spacing_mm = 0.0;
+  int boundary_levels = 2;
+  std::optional<fem::Region> tool_region;
+  int tool_levels = 1;
+};
+
+/// Builds the proxy mesh of `labels` (every label present must have a material, else
+/// InputError(materials.source, ...)); the label function is the voxel's label at a world
+/// point, the box is the volume's voxel-centre box, and reference volumes per label are the
+/// voxel counts times the voxel volume. Vertex classes: fixed labels and fixed regions
+/// (resolved on `labels`) give kFixed.
+ProxyMesh build_proxy_mesh(const labels::LabelMap& labels, const labels::Materials& materials,
+                           const ProxyMeshOptions& options = {});
+
+/// The DOFs of the fixed vertices (3 per vertex, in vertex order): the FEM's Dirichlet set.
+std::vector<int> fixed_dofs(const ProxyMesh& proxy);
+
+}  // namespace hapvox::engine::proxy
