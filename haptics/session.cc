@@ -18,6 +18,18 @@ namespace {
 // Rows per HDF5 chunk: one second at 1 kHz.
 constexpr hsize_t kChunkRows = 1024;
 
+// A scalar string attribute on an object.
+void set_string_attribute(hid_t object, const char* name, const char* value) {
+  const hid_t str_type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(str_type, std::strlen(value) + 1);
+  const hid_t scalar = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate2(object, name, str_type, scalar, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, str_type, value);
+  H5Aclose(attr);
+  H5Sclose(scalar);
+  H5Tclose(str_type);
+}
+
 hid_t create_column(hid_t file, const char* name, hid_t file_type, hsize_t columns,
                     const char* units) {
   const int rank = columns == 1 ? 1 : 2;
@@ -35,16 +47,7 @@ hid_t create_column(hid_t file, const char* name, hid_t file_type, hsize_t colum
   H5Pclose(props);
   H5Sclose(space);
   HAPVOX_CHECK(dataset >= 0);
-  if (units != nullptr) {
-    const hid_t str_type = H5Tcopy(H5T_C_S1);
-    H5Tset_size(str_type, std::strlen(units) + 1);
-    const hid_t scalar = H5Screate(H5S_SCALAR);
-    const hid_t attr = H5Acreate2(dataset, "units", str_type, scalar, H5P_DEFAULT, H5P_DEFAULT);
-    H5Awrite(attr, str_type, units);
-    H5Aclose(attr);
-    H5Sclose(scalar);
-    H5Tclose(str_type);
-  }
+  if (units != nullptr) set_string_attribute(dataset, "units", units);
   return dataset;
 }
 
@@ -240,6 +243,29 @@ void SessionWriter::write_array(const std::string& path, const std::vector<std::
     HAPVOX_CHECK(
         H5Dwrite(dataset, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) >= 0);
   }
+  H5Dclose(dataset);
+}
+
+void SessionWriter::write_array(const std::string& path, const std::vector<double>& values,
+                                const std::vector<std::size_t>& dims, const char* unit) {
+  HAPVOX_CHECK(!closed_);
+  std::vector<hsize_t> extent(dims.begin(), dims.end());
+  std::size_t count = 1;
+  for (const std::size_t d : dims) count *= d;
+  HAPVOX_CHECK_EQ(values.size(), count);
+  const hid_t space = H5Screate_simple(static_cast<int>(extent.size()), extent.data(), nullptr);
+  const hid_t link_props = H5Pcreate(H5P_LINK_CREATE);
+  H5Pset_create_intermediate_group(link_props, 1);
+  const hid_t dataset =
+      H5Dcreate2(file_, path.c_str(), H5T_IEEE_F64LE, space, link_props, H5P_DEFAULT, H5P_DEFAULT);
+  H5Pclose(link_props);
+  H5Sclose(space);
+  HAPVOX_CHECK(dataset >= 0);
+  if (count > 0) {
+    HAPVOX_CHECK(
+        H5Dwrite(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) >= 0);
+  }
+  if (unit != nullptr) set_string_attribute(dataset, "units", unit);
   H5Dclose(dataset);
 }
 

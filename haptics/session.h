@@ -63,6 +63,14 @@ class SessionWriter {
   void write_array(const std::string& path, const std::vector<std::int64_t>& values,
                    const char* unit);
 
+  /// Writes a one-off float64 dataset of shape `dims` (row-major values; an empty
+  /// dimension allowed), e.g. "fem/displacement_mm" of (FEM steps, vertices, 3), with a unit.
+  void write_array(const std::string& path, const std::vector<double>& values,
+                   const std::vector<std::size_t>& dims, const char* unit);
+
+  /// The open file, for writers of whole groups (e.g. the proxy mesh); not after close().
+  hid_t file_handle() const { return file_; }
+
   /// Buffers the row; writes and flushes the file every flush_every_ticks rows.
   void append(const TickRecord& row);
   /// Writes what is buffered, marks the file complete and renames it to PATH.

@@ -1,0 +1,222 @@
+#pragma once
+// The proxy-FEM model (Nakao et al. 2010) behind the seams of haptics/model_stages.h:
+//
+//   FemModel            the constant part: the proxy mesh, its prefactored linear stiffness,
+//                       the options and the free surface vertices a press can touch
+//   FemForceStage       the 1 kHz stage: the press or grab contact solve (haptics/fem_contact.h)
+//                       on the snapshot the FEM thread published last; the device position
+//                       goes back to the FEM thread through a mailbox
+//   FemBackgroundStage  the FEM step: the contact forces at the latest device position, the
+//                       displacement (linear: one prefactored solve; co-rotational: one
+//                       stiffness-warping step), then the next snapshot: the vertices near
+//                       the tool, their compliance W and base positions. Lockstep: every
+//                       fem_every_ticks ticks; realtime: its own thread at fem_rate_hz.
+//
+// Hand-offs are lock-free: a triple buffer of snapshots (FEM -> force thread) and a seqlock
+// mailbox of the device position (force -> FEM thread). In lockstep the same hand-offs are
+// used on one thread, so both loops run the same code.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/fem/corotational.h"
+#include "engine/fem/linear_fem.h"
+#include "engine/proxy/proxy_mesh.h"
+#include "haptics/fem_contact.h"
+#include "haptics/model_stages.h"
+#include "haptics/render_feed.h"
+
+namespace hapvox::haptics {
+
+enum class FemInteraction { kPress, kGrab };
+enum class FemSolver { kLinear, kCorotational };
+
+/// "press"/"grab", "linear"/"corotational"; parse_* throw InputError(source, ...).
+const char* fem_interaction_name(FemInteraction interaction);
+const char* fem_solver_name(FemSolver solver);
+FemInteraction parse_fem_interaction(const std::string& name, const std::string& source);
+FemSolver parse_fem_solver(const std::string& name, const std::string& source);
+
+struct FemOptions {
+  FemInteraction interaction = FemInteraction::kPress;
+  FemSolver solver = FemSolver::kLinear;
+  /// Press: the tool sphere's radius. Grab: the capture radius around the first position.
+  double tool_radius_mm = 5.0;
+  /// The virtual coupling between device and tool proxy. The rendered stiffness never
+  /// exceeds it (the FEM's contact stiffness acts in series), so the passivity bound of a
+  /// sampled spring (Colgate & Schenkel 1997), k < 2 b / T, holds for it alone: 1 N/mm at
+  /// T = 1 ms needs a device damping b >= 0.5 N s/m (docs/physics.md).
+  double coupling_n_per_mm = 1.0;
+  /// Press: free surface vertices within this distance of the tool's surface are in the
+  /// snapshot, so that they are there before they touch.
+  double candidate_margin_mm = 2.0;
+  /// Lockstep: one FEM step every this many ticks (10: 100 Hz at 1 kHz).
+  std::size_t fem_every_ticks = 10;
+  /// Realtime: the FEM thread's rate.
+  double fem_rate_hz = 100.0;
+  /// Co-rotational mode.
+  engine::fem::CorotationalOptions corotational;
+};
+
+/// Throws InputError("fem options", ...) for a radius, coupling, rate or step interval that
+/// is not positive and finite, or a negative margin.
+void validate(const FemOptions& options);
+
+/// The constant part of a proxy-FEM run (shared by both stages; read-only once built).
+class FemModel {
+ public:
+  /// Validates the options, assembles and factorises the linear stiffness with the fixed
+  /// vertices as Dirichlet conditions (InputError when nothing is fixed: a free body).
+  FemModel(engine::proxy::ProxyMesh proxy, const FemOptions& options);
+
+  const engine::proxy::ProxyMesh& proxy() const { return proxy_; }
+  const engine::fem::TetMesh& mesh() const { return proxy_.mesh; }
+  const FemOptions& options() const { return options_; }
+  const engine::fem::LinearFem& linear() const { return *linear_; }
+  const std::vector<int>& fixed_dofs() const { return fixed_dofs_; }
+  /// Free vertices on the mesh's surface (those a press can touch), in vertex order.
+  const std::vector<std::int32_t>& surface_vertices() const { return surface_vertices_; }
+  /// Free vertices in vertex order (those a grab can capture).
+  const std::vector<std::int32_t>& free_vertices() const { return free_vertices_; }
+
+ private:
+  engine::proxy::ProxyMesh proxy_;
+  FemOptions options_;
+  std::vector<int> fixed_dofs_;
+  std::unique_ptr<engine::fem::LinearFem> linear_;
+  std::vector<std::int32_t> surface_vertices_;
+  std::vector<std::int32_t> free_vertices_;
+};
+
+/// A wait-free single-producer single-consumer triple buffer.
+template <class T>
+class TripleBuffer {
+ public:
+  /// Producer: the slot to fill before publish().
+  T& write_slot() { return slots_[write_]; }
+  /// Producer: makes the write slot the latest.
+  void publish() noexcept {
+    write_ =
+        latest_.exchange(static_cast<std::uint8_t>(write_ | kFresh), std::memory_order_acq_rel) &
+        kIndex;
+  }
+  /// Consumer: the latest published value (the one read before, when nothing is new).
+  const T& read() noexcept {
+    if (latest_.load(std::memory_order_acquire) & kFresh) {
+      read_ = latest_.exchange(read_, std::memory_order_acq_rel) & kIndex;
+    }
+    return slots_[read_];
+  }
+
+ private:
+  static constexpr std::uint8_t kFresh = 4;
+  static constexpr std::uint8_t kIndex = 3;
+  std::array<T, 3> slots_{};
+  std::atomic<std::uint8_t> latest_{0};
+  std::uint8_t write_ = 1;  // producer only
+  std::uint8_t read_ = 2;   // consumer only
+};
+
+/// The hand-offs between the two stages of one run.
+struct FemHandoff {
+  TripleBuffer<ContactSnapshot> snapshots;  // FEM thread -> force thread
+  ToolStateMailbox device;                  // force thread -> FEM thread: center = device
+};
+
+/// The proxy-FEM model's 1 kHz stage.
+class FemForceStage final : public ForceStage {
+ public:
+  FemForceStage(const FemModel& model, FemHandoff& handoff);
+
+  Vec3d step(const Vec3d& tool_center_mm, TickRecord& row) noexcept override;
+  ForceStageCounters counters() const noexcept override;
+  /// model = "fem", interaction, solver, radius, coupling, rates, mesh counts.
+  void write_attributes(SessionWriter& session) const override;
+
+  /// Ticks whose press solve did not finish (sent without force).
+  std::uint64_t unconverged_solves() const { return unconverged_; }
+  /// The last tick's solve (tests).
+  const ContactSolve& last_solve() const { return last_; }
+
+ private:
+  const FemModel& model_;
+  FemHandoff& handoff_;
+  PressScratch scratch_;
+  ContactSolve last_;
+  std::int64_t tick_ = 0;
+  bool in_contact_ = false;
+  std::uint64_t contact_onsets_ = 0;
+  std::uint64_t unconverged_ = 0;
+  std::uint64_t nonfinite_ = 0;
+};
+
+/// One FEM step's node displacements.
+struct FemFrame {
+  std::int64_t tick = 0;                // the force tick whose device position it solved for
+  std::vector<double> displacement_mm;  // 3 per vertex, x fastest
+};
+
+/// The proxy-FEM model's background stage: the FEM.
+class FemBackgroundStage final : public BackgroundStage {
+ public:
+  /// `initial_device_mm` is the device's position at the first tick: the first snapshot
+  /// is made there, and a grab captures the free vertices within the tool radius of it
+  /// (InputError("grab", ...) when there are none).
+  FemBackgroundStage(const FemModel& model, FemHandoff& handoff, const Vec3d& initial_device_mm);
+  ~FemBackgroundStage() override;
+
+  void begin() override;
+  void run_lockstep_tick(std::size_t tick, TickRecord& row, const LockstepRender* render) override;
+  void run_realtime(const std::atomic<bool>& force_done,
+                    std::chrono::steady_clock::time_point start, RenderFeed* feed,
+                    BackgroundTiming& timing) override;
+  void fill_realtime_row(TickRecord&) noexcept override {}
+  void wake() noexcept override {}
+  SculptSummary finish(const LockstepRender* render, RenderFeed* feed,
+                       const std::atomic<bool>* render_finished) override;
+
+  /// The displacement of every FEM step, in order (the first: begin()'s).
+  const std::vector<FemFrame>& frames() const { return frames_; }
+  /// The current displacement (mm, 3 per vertex).
+  const Eigen::VectorXd& displacement_mm() const { return displacement_mm_; }
+  /// The vertices a grab captured (empty for a press).
+  const std::vector<std::int32_t>& captured_vertices() const { return captured_; }
+  std::uint64_t steps() const { return steps_; }
+  /// Per-vertex classes at the end: fixed, free, or constrained (captured by a grab).
+  std::vector<engine::fem::VertexClass> vertex_classes() const;
+  /// The FEM's datasets: fem/displacement_mm (steps x vertices x 3), fem/step_tick,
+  /// fem/step_time_s (from the tick and `rate_hz`, starting at `t0_s`), fem/vertex_class.
+  void write_session(SessionWriter& session, double t0_s, double rate_hz) const;
+
+ private:
+  // One FEM step for the device at `device_mm`, the step's frame recorded for `tick`.
+  void fem_step(const Vec3d& device_mm, std::int64_t tick);
+  // The contact forces (N, all DOFs) the snapshot gives at `device_mm`, and the proxy.
+  Eigen::VectorXd contact_loads(const ContactSnapshot& snapshot, const Vec3d& device_mm,
+                                Vec3d& proxy_mm);
+  // K_FF^-1 (or the warped one) of a free-DOF vector.
+  Eigen::VectorXd solve_free(const Eigen::VectorXd& rhs) const;
+  // The next snapshot for the proxy at `proxy_mm` with loads `loads_n`.
+  void make_snapshot(const Vec3d& proxy_mm, const Eigen::VectorXd& loads_n, ContactSnapshot& out);
+
+  const FemModel& model_;
+  FemHandoff& handoff_;
+  Vec3d initial_device_mm_;
+  std::unique_ptr<engine::fem::CorotationalFem> corotational_;
+  Eigen::VectorXd displacement_mm_;
+  ContactSnapshot current_;  // what was published last (the FEM thread's copy)
+  PressScratch scratch_;
+  std::vector<std::int32_t> captured_;
+  // Grab: W^-1 of the captured vertices and their forces at the last step.
+  Eigen::MatrixXd grab_w_inverse_;
+  Eigen::VectorXd grab_vertex_forces_n_;
+  std::vector<FemFrame> frames_;
+  std::uint64_t steps_ = 0;
+};
+
+}  // namespace hapvox::haptics

@@ -1,0 +1,241 @@
+// The proxy-FEM model's stages (haptics/fem_model.h) through the loops: the grab force equals
+// a full FEM solve with the captured vertices held, whatever the FEM's rate; the press is
+// continuous, pushes the tool out of the material, and does not depend on how often the FEM
+// runs while the contact set stays; lockstep runs are bit-identical; and the realtime FEM
+// thread hands its snapshots over without a race (ThreadSanitizer runs FemRealtime.*).
+
+#include "haptics/fem_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <memory>
+
+#include "engine/errors.h"
+#include "engine/fem/tet_mesh.h"
+#include "haptics/realtime.h"
+#include "haptics/replay.h"
+
+namespace hapvox::haptics {
+namespace {
+
+using engine::fem::VertexClass;
+
+constexpr double kYoungsPa = 1e5;  // 0.1 MPa
+constexpr double kPoisson = 0.3;
+constexpr double kBlockTopMm = 8.0;
+
+// A 12 x 12 x 8 mm block of 2 mm Kuhn cells, its bottom face fixed.
+engine::proxy::ProxyMesh block() {
+  engine::proxy::ProxyMesh proxy;
+  proxy.mesh = engine::fem::regular_lattice({7, 7, 5}, 2.0, Vec3d::Zero(), 1);
+  proxy.materials.assign(proxy.mesh.tet_count(), {kYoungsPa, kPoisson});
+  for (int v = 0; v < proxy.mesh.vertex_count(); ++v) {
+    proxy.vertex_classes.push_back(proxy.mesh.rest_mm(2, v) == 0.0 ? VertexClass::kFixed
+                                                                   : VertexClass::kFree);
+  }
+  proxy.materials_source = "test block";
+  return proxy;
+}
+
+// A 1 kHz device following `path(tick)` for `ticks` ticks.
+TraceDevice device_along(std::size_t ticks, const std::function<Vec3d(std::size_t)>& path) {
+  ResampledTrace trace;
+  for (std::size_t k = 0; k < ticks; ++k) {
+    trace.time_s.push_back(static_cast<double>(k) / trace.rate_hz);
+    trace.position_mm.push_back(path(k));
+    trace.holding.push_back(0);
+  }
+  return TraceDevice(std::move(trace), DeviceTransform{});
+}
+
+DeviceLimits no_ramp() {
+  DeviceLimits limits;
+  limits.max_force_n = 1e3;
+  limits.ramp_in_s = 0.0;
+  return limits;
+}
+
+struct FemRun {
+  std::vector<Vec3d> force_n;
+  std::vector<std::uint8_t> contact;
+  std::vector<FemFrame> frames;
+  std::vector<std::int32_t> captured;
+};
+
+// A lockstep run of `device` through the FEM stages, recording every row.
+FemRun run_lockstep(const FemModel& model, const TraceDevice& device) {
+  // The order replay_lockstep runs them in, with every row kept.
+  FemRun run;
+  auto handoff2 = std::make_unique<FemHandoff>();
+  FemForceStage force2(model, *handoff2);
+  FemBackgroundStage fem2(model, *handoff2, device.tool_position_mm(0));
+  fem2.begin();
+  ForceRamp ramp(no_ramp(), device.rate_hz());
+  for (std::size_t tick = 0; tick < device.tick_count(); ++tick) {
+    TickRecord row;
+    run_force_stage(force2, device, tick, no_ramp(), ramp, row);
+    fem2.run_lockstep_tick(tick, row, nullptr);
+    run.force_n.push_back(row.force_n);
+    run.contact.push_back(row.contact);
+  }
+  run.frames = fem2.frames();
+  run.captured = fem2.captured_vertices();
+  return run;
+}
+
+double peak_n(const std::vector<Vec3d>& forces) {
+  double peak = 0.0;
+  for (const Vec3d& f : forces) peak = std::max(peak, f.norm());
+  return peak;
+}
+
+FemOptions options(FemInteraction interaction, std::size_t every_ticks) {
+  FemOptions o;
+  o.interaction = interaction;
+  o.fem_every_ticks = every_ticks;
+  o.coupling_n_per_mm = 1.0;
+  if (interaction == FemInteraction::kGrab) {
+    o.tool_radius_mm = 2.1;  // the top-centre vertex and its five lattice neighbours
+  } else {
+    o.tool_radius_mm = 4.0;
+    o.candidate_margin_mm = 1.0;
+  }
+  return o;
+}
+
+// Up 1 mm, then 1 mm along +x, from the top centre.
+TraceDevice grab_path() {
+  const Vec3d start(6.0, 6.0, kBlockTopMm);
+  return device_along(400, [start](std::size_t k) {
+    const double s = static_cast<double>(k) / 200.0;
+    return Vec3d(start + Vec3d(std::max(0.0, s - 1.0), 0.0, std::min(s, 1.0)));
+  });
+}
+
+TEST(FemGrab, ForceEqualsAFullSolveWithTheCapturedVerticesHeldAtAnyFemRate) {
+  const FemModel every_tick(block(), options(FemInteraction::kGrab, 1));
+  const FemModel every_ten(block(), options(FemInteraction::kGrab, 10));
+  const TraceDevice device = grab_path();
+  const FemRun fast = run_lockstep(every_tick, device);
+  const FemRun slow = run_lockstep(every_ten, device);
+  ASSERT_EQ(fast.captured.size(), 6u);
+  const double peak = peak_n(fast.force_n);
+  ASSERT_GT(peak, 0.1);
+  for (std::size_t k = 0; k < fast.force_n.size(); ++k) {
+    ASSERT_LE((fast.force_n[k] - slow.force_n[k]).norm(), 1e-9 * peak) << "tick " << k;
+  }
+  // The full solve: the captured vertices prescribed at the proxy's offset d; the body's
+  // pull on them is what the coupling balances, so the device feels the sum of the
+  // support reactions, negated. The proxy is p = p_d + F / k_c.
+  const FemOptions& o = every_tick.options();
+  std::vector<int> held = every_tick.fixed_dofs();
+  for (const int v : engine::fem::vertex_dofs(fast.captured)) held.push_back(v);
+  const engine::fem::LinearFem full(every_tick.mesh(), every_tick.proxy().materials, held);
+  for (const std::size_t k : {50u, 199u, 300u, 399u}) {
+    const Vec3d proxy = device.tool_position_mm(k) + fast.force_n[k] / o.coupling_n_per_mm;
+    const Vec3d d = proxy - device.tool_position_mm(0);
+    Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(3 * every_tick.mesh().vertex_count());
+    for (const std::int32_t v : fast.captured) prescribed.segment<3>(3 * v) = d;
+    const Eigen::VectorXd loads = Eigen::VectorXd::Zero(prescribed.size());
+    const Eigen::VectorXd reactions = full.reactions_n(full.solve_mm(loads, prescribed), loads);
+    Vec3d held_by_tool = Vec3d::Zero();
+    for (const std::int32_t v : fast.captured) held_by_tool += reactions.segment<3>(3 * v);
+    EXPECT_LE((fast.force_n[k] + held_by_tool).norm(), 1e-9 * peak) << "tick " << k;
+  }
+  // Pulled up and sideways, the material pulls the tool back down and back.
+  EXPECT_LT(fast.force_n.back().z(), 0.0);
+  EXPECT_LT(fast.force_n.back().x(), 0.0);
+}
+
+// A 4 mm sphere from 0.5 mm above the top face to 1 mm into it, at 1 mm/s.
+TraceDevice press_path() {
+  return device_along(1500, [](std::size_t k) {
+    const double depth_mm = -0.5 + 1.5 * static_cast<double>(k) / 1499.0;
+    return Vec3d(6.0, 6.0, kBlockTopMm + 4.0 - depth_mm);
+  });
+}
+
+TEST(FemPress, ForceIsContinuousPushesOutAndDoesNotDependOnTheFemRate) {
+  const FemModel every_tick(block(), options(FemInteraction::kPress, 1));
+  const FemModel every_ten(block(), options(FemInteraction::kPress, 10));
+  const TraceDevice device = press_path();
+  const FemRun fast = run_lockstep(every_tick, device);
+  const FemRun slow = run_lockstep(every_ten, device);
+  const double peak = peak_n(fast.force_n);
+  ASSERT_GT(peak, 0.05);
+  double largest_jump = 0.0;
+  for (std::size_t k = 0; k < fast.force_n.size(); ++k) {
+    ASSERT_LE((fast.force_n[k] - slow.force_n[k]).norm(), 1e-9 * peak) << "tick " << k;
+    if (k > 0)
+      largest_jump = std::max(largest_jump, (fast.force_n[k] - fast.force_n[k - 1]).norm());
+    // Frictionless on a symmetric block: up, out of the material; sideways only by the
+    // Kuhn lattice's diagonals (measured 0.35 % of the peak).
+    EXPECT_GE(fast.force_n[k].z(), 0.0);
+    EXPECT_LE(std::hypot(fast.force_n[k].x(), fast.force_n[k].y()), 0.01 * peak);
+  }
+  EXPECT_LE(largest_jump, 0.05 * peak);
+  EXPECT_EQ(fast.contact.front(), 0);
+  EXPECT_EQ(fast.contact.back(), 1);
+  // Deeper is harder.
+  EXPECT_GT(fast.force_n.back().z(), fast.force_n[1000].z());
+}
+
+TEST(FemPress, TwoLockstepRunsAreBitIdentical) {
+  const FemModel model(block(), options(FemInteraction::kPress, 10));
+  const TraceDevice device = press_path();
+  const FemRun a = run_lockstep(model, device);
+  const FemRun b = run_lockstep(model, device);
+  ASSERT_EQ(a.frames.size(), b.frames.size());
+  for (std::size_t k = 0; k < a.force_n.size(); ++k) {
+    ASSERT_EQ(std::memcmp(a.force_n[k].data(), b.force_n[k].data(), sizeof(Vec3d)), 0);
+  }
+  for (std::size_t s = 0; s < a.frames.size(); ++s) {
+    ASSERT_EQ(a.frames[s].displacement_mm, b.frames[s].displacement_mm);
+  }
+  EXPECT_EQ(a.frames.size(), 1 + 1500 / 10);
+}
+
+TEST(FemOptionsCheck, BadOptionsAreInputErrors) {
+  FemOptions o;
+  o.tool_radius_mm = 0.0;
+  try {
+    validate(o);
+    FAIL();
+  } catch (const hapvox::InputError& e) {
+    EXPECT_STREQ(e.what(), "fem options: the tool radius must be > 0 mm");
+  }
+  o = FemOptions{};
+  o.coupling_n_per_mm = NAN;
+  EXPECT_THROW(validate(o), hapvox::InputError);
+  EXPECT_THROW(parse_fem_interaction("poke", "--interaction"), hapvox::InputError);
+  EXPECT_EQ(parse_fem_solver("corotational", "--fem-solver"), FemSolver::kCorotational);
+}
+
+TEST(FemGrab, NothingWithinReachIsAnInputErrorNamingTheNearestVertex) {
+  const FemModel model(block(), options(FemInteraction::kGrab, 10));
+  FemHandoff handoff;
+  EXPECT_THROW(FemBackgroundStage(model, handoff, Vec3d(6, 6, 20)), hapvox::InputError);
+}
+
+TEST(FemRealtime, TheFemThreadStepsBesideTheForceThreadAndItsForcesAreFinite) {
+  const FemModel model(block(), options(FemInteraction::kPress, 10));
+  const TraceDevice device = press_path();
+  auto handoff = std::make_unique<FemHandoff>();
+  FemForceStage force(model, *handoff);
+  FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
+  TimingSummary timing;
+  const ReplaySummary summary =
+      replay_realtime(force, &fem, device, no_ramp(), nullptr, {}, nullptr, &timing);
+  EXPECT_EQ(summary.ticks, device.tick_count());
+  // 1.5 s at 100 Hz; however loaded the machine, several steps.
+  EXPECT_GE(fem.steps(), 5u);
+  EXPECT_EQ(fem.frames().size(), fem.steps());
+  EXPECT_GT(summary.peak_force_n, 0.05);
+  EXPECT_EQ(force.counters().nonfinite_forces, 0u);
+}
+
+}  // namespace
+}  // namespace hapvox::haptics
