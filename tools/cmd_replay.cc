@@ -14,82 +14,10 @@
 #include "haptics/voxel_model.h"
 #include "tools/cli.h"
 #include "tools/render_output.h"
+#include "tools/replay_command.h"
 
 namespace hapvox::cli {
 namespace {
-
-struct ReplayFlags {
-  std::string trace_path;
-  std::string volume;
-  std::string output;
-  bool quiet = false;
-  MappingFlags mapping;
-  TraceFlags trace;
-  TransformFlags transform;
-  ForceFlags force;
-  haptics::DeviceLimits limits;
-  // Sculpting.
-  bool plastic = false;
-  bool realtime = false;
-  std::size_t relax_voxels_per_tick = 2000;
-  double relax_tolerance = 0.02;
-  double normal_density = 1.0;
-  std::string sculpt_out;
-  // Realtime scheduling.
-  bool no_mlock = false;
-  bool no_rt_priority = false;
-  int cpu = -1;
-  bool no_pin = false;
-  double watchdog_periods = 1.0;
-  // Rendering (a render thread in realtime, a frame every N ticks in lockstep).
-  std::string render_dir;
-  double render_fps = 30.0;
-  std::size_t render_every_ticks = 100;
-  RenderFlags render;
-};
-
-// What a replay measured, for the caller to judge.
-struct ReplayResult {
-  haptics::ReplaySummary summary;
-  haptics::TimingSummary timing;
-  haptics::SculptSummary sculpted;
-};
-
-void print_stats_line(const char* label, const haptics::DurationStats& d) {
-  std::printf("  %-16s p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us (%zu)\n", label,
-              d.p50_us, d.p99_us, d.p999_us, d.max_us, d.count);
-}
-
-std::string vec_text(const Eigen::Vector3d& v) {
-  std::ostringstream out;
-  out << v.x() << "," << v.y() << "," << v.z();
-  return out.str();
-}
-
-std::string mapping_text(const engine::IntensityMapping& m) {
-  std::ostringstream out;
-  switch (m.kind) {
-    case engine::IntensityMapping::Kind::kAuto:
-      out << "auto (Otsu threshold)";
-      break;
-    case engine::IntensityMapping::Kind::kThreshold:
-      out << "threshold " << m.low;
-      break;
-    case engine::IntensityMapping::Kind::kWindow:
-      out << "window " << m.low << "," << m.high;
-      break;
-  }
-  return out.str();
-}
-
-void print_progress(std::size_t done, std::size_t total) {
-  const int width = 40;
-  const int filled = static_cast<int>(width * done / std::max<std::size_t>(total, 1));
-  std::fprintf(stderr, "\r[%.*s%*s] %3zu%% %zu/%zu ticks", filled,
-               "########################################", width - filled, "",
-               100 * done / std::max<std::size_t>(total, 1), done, total);
-  if (done == total) std::fprintf(stderr, "\n");
-}
 
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   // Check everything the user gave before reading big files or creating output.
@@ -100,20 +28,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   }
   const haptics::TraceColumns columns = f.trace.columns();
   const engine::IntensityMapping mapping = f.mapping.resolve();
-  if (!std::isfinite(f.limits.max_force_n) || f.limits.max_force_n <= 0.0) {
-    throw InputError("--max-force-n", "must be positive");
-  }
-  if (!std::isfinite(f.limits.ramp_in_s) || f.limits.ramp_in_s < 0.0) {
-    throw InputError("--ramp-in-s", "must be zero or positive");
-  }
-  if (f.realtime && f.trace.rate_hz > 10e3) {
-    throw InputError("--rate-hz", "a realtime loop runs at most 10000 Hz");
-  }
-  if (!(f.watchdog_periods > 0.0) || !std::isfinite(f.watchdog_periods)) {
-    throw InputError("--watchdog-periods", "must be positive");
-  }
-  if (f.cpu < -1 || f.cpu >= 1024)
-    throw InputError("--cpu", "must be a CPU number (or -1 for the last)");
+  check_loop_flags(f);
   check_output_path(f.output, "--output");
   if (!f.sculpt_out.empty()) {
     if (!f.plastic) throw InputError("--sculpt-out", "needs --plastic");
@@ -178,28 +93,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                                                0.5 * model.options().tool.diameter_mm, f.realtime);
   }
   haptics::SessionWriter session(f.output);
-  session.set_attribute("command_line", command_line);
-  session.set_attribute("trace_file", f.trace_path);
-  session.set_attribute("trace_columns", columns.time + "," + f.trace.pos_cols);
-  session.set_attribute("trace_units", f.trace.time_unit + "," + f.trace.pos_unit);
-  session.set_attribute("volume", f.volume);
-  session.set_attribute("volume_mapping", mapping_text(mapping));
-  session.set_attribute("volume_dims", field.dims().cast<double>().eval());
-  session.set_attribute("voxel_size_mm", field.voxel_size_mm());
-  session.set_attribute("volume_origin_mm", field.origin_mm());
-  session.set_attribute("loop_rate_hz", device.rate_hz());
-  session.set_attribute("clock", std::string(f.realtime ? "realtime" : "lockstep"));
-  session.set_attribute("max_gap_s", f.trace.max_gap_s);
-  session.set_attribute("max_force_n", f.limits.max_force_n);
-  session.set_attribute("ramp_in_s", f.limits.ramp_in_s);
-  session.set_attribute("transform_scale", transform.scale);
-  session.set_attribute("transform_offset_mm", transform.offset_mm);
-  std::ostringstream rotation;
-  rotation << transform.rotation.format(Eigen::IOFormat(Eigen::FullPrecision, 0, ",", ";"));
-  session.set_attribute("transform_rotation", rotation.str());
-  for (const auto& [name, version] : haptics::library_versions()) {
-    session.set_attribute("version_" + name, version);
-  }
+  write_run_attributes(session, f, command_line, columns, mapping, field, device);
 
   session.set_attribute("plastic", std::int64_t{f.plastic ? 1 : 0});
   if (f.plastic) {
@@ -233,24 +127,18 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
             : std::make_unique<haptics::RelaxationStage>(*mass, channel, field, force, budget);
   }
   force.write_attributes(session);
-  const bool show_progress = !f.quiet && isatty(STDERR_FILENO) && device.tick_count() >= 2000;
+
   haptics::ReplaySummary s;
   try {
-    const haptics::ProgressFn progress =
-        show_progress ? haptics::ProgressFn(print_progress) : haptics::ProgressFn();
+    const haptics::ProgressFn progress = progress_bar(f, device);
     if (f.realtime) {
-      haptics::RealtimeOptions realtime_options;
-      realtime_options.scheduler.lock_memory = !f.no_mlock;
-      realtime_options.scheduler.realtime_policy = !f.no_rt_priority;
-      realtime_options.scheduler.pin_cpu = !f.no_pin;
-      realtime_options.scheduler.cpu = f.cpu;
-      realtime_options.watchdog_periods = f.watchdog_periods;
+      haptics::RealtimeOptions options = realtime_options(f);
       if (recorder) {
-        realtime_options.render_loop = recorder->realtime_loop(f.render_fps);
-        realtime_options.scheduler.lock_future_memory = false;
+        options.render_loop = recorder->realtime_loop(f.render_fps);
+        options.scheduler.lock_future_memory = false;
       }
       s = haptics::replay_realtime(force, relaxation.get(), device, f.limits, &session, progress,
-                                   &sculpted, &timing, realtime_options);
+                                   &sculpted, &timing, options);
     } else {
       haptics::LockstepRender render;
       render.every_ticks = f.render_every_ticks;
@@ -269,46 +157,15 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     session.abandon();
     throw;
   }
-  session.set_attribute("summary_ticks", static_cast<std::int64_t>(s.ticks));
-  session.set_attribute("summary_contact_time_s", s.contact_time_s);
-  session.set_attribute("summary_peak_force_n", s.peak_force_n);
-  session.set_attribute("summary_clamped_ticks", static_cast<std::int64_t>(s.clamped_ticks));
-  session.set_attribute("summary_nonfinite_forces", static_cast<std::int64_t>(s.nonfinite_forces));
-  session.set_attribute("summary_trace_gaps", std::int64_t{s.trace_gaps});
-  session.set_attribute("summary_compute_p50_us", s.compute_p50_us);
-  session.set_attribute("summary_compute_p99_us", s.compute_p99_us);
-  if (f.realtime) {
-    session.set_attribute("summary_lateness_p50_us", timing.lateness.p50_us);
-    session.set_attribute("summary_lateness_p99_us", timing.lateness.p99_us);
-    session.set_attribute("summary_lateness_p999_us", timing.lateness.p999_us);
-    session.set_attribute("summary_lateness_max_us", timing.lateness.max_us);
-    session.set_attribute("summary_missed_deadlines",
-                          static_cast<std::int64_t>(timing.missed_deadlines));
-    session.set_attribute("summary_watchdog_trips",
-                          static_cast<std::int64_t>(timing.watchdog_trips));
-    session.set_attribute("summary_watchdog_ramped_ticks",
-                          static_cast<std::int64_t>(timing.watchdog_ramped_ticks));
-    session.set_attribute("summary_stalled_ticks", static_cast<std::int64_t>(timing.stalled_ticks));
-    session.set_attribute("summary_achieved_rate_hz", timing.achieved_rate_hz);
-    session.set_attribute("summary_wall_time_s", timing.wall_time_s);
-    session.set_attribute("summary_force_cpu_s", timing.force_cpu_s);
-    session.set_attribute("summary_force_involuntary_switches",
-                          static_cast<std::int64_t>(timing.force_involuntary_switches));
-    session.set_attribute("summary_machine_steal_s", timing.machine_steal_s);
-    session.set_attribute("scheduler_timer_slack", timing.scheduler.timer_slack);
-    session.set_attribute("scheduler_memory_lock", timing.scheduler.memory_lock);
-    session.set_attribute("scheduler_policy", timing.scheduler.policy);
-    session.set_attribute("scheduler_affinity", timing.scheduler.affinity);
-    session.set_attribute("watchdog_periods", f.watchdog_periods);
-    if (f.plastic) {
-      session.set_attribute("summary_relax_slice_p50_us", timing.relax_slice.p50_us);
-      session.set_attribute("summary_relax_slice_p99_us", timing.relax_slice.p99_us);
-      session.set_attribute("summary_relax_slice_max_us", timing.relax_slice.max_us);
-      session.set_attribute("summary_relax_busy_fraction", timing.relax_busy_fraction);
-      session.set_attribute("summary_relax_cpu_s", timing.relax_cpu_s);
-      session.write_array("timing/relax_slice_ns", timing.relax_slice_ns, "ns");
-      session.write_array("timing/relax_slice_start_ns", timing.relax_slice_start_ns, "ns");
-    }
+  write_summary_attributes(session, f, s, timing);
+  if (f.realtime && f.plastic) {
+    session.set_attribute("summary_relax_slice_p50_us", timing.relax_slice.p50_us);
+    session.set_attribute("summary_relax_slice_p99_us", timing.relax_slice.p99_us);
+    session.set_attribute("summary_relax_slice_max_us", timing.relax_slice.max_us);
+    session.set_attribute("summary_relax_busy_fraction", timing.relax_busy_fraction);
+    session.set_attribute("summary_relax_cpu_s", timing.relax_cpu_s);
+    session.write_array("timing/relax_slice_ns", timing.relax_slice_ns, "ns");
+    session.write_array("timing/relax_slice_start_ns", timing.relax_slice_start_ns, "ns");
   }
   if (recorder) {
     session.set_attribute("render_dir", f.render_dir);
@@ -343,39 +200,12 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
 
   std::printf("replayed %s on %s -> %s\n", f.trace_path.c_str(), f.volume.c_str(),
               f.output.c_str());
-  std::printf("  ticks            %zu at %.0f Hz (%.3f s, %s)\n", s.ticks, device.rate_hz(),
-              s.duration_s, f.realtime ? "realtime" : "simulated, lockstep");
-  std::printf("  tool position    %s .. %s mm (volume space)\n",
-              vec_text(device.tool_position_mm(0)).c_str(),
-              vec_text(device.tool_position_mm(s.ticks - 1)).c_str());
-  std::printf("  contact          %.3f s in %zu ticks, %llu contact onsets\n", s.contact_time_s,
-              s.contact_ticks, static_cast<unsigned long long>(s.contact_onsets));
-  std::printf("  peak force       %.4f N (clamped on %zu ticks at %.2f N)\n", s.peak_force_n,
-              s.clamped_ticks, f.limits.max_force_n);
-  std::printf("  compute per tick p50 %.2f us, p99 %.2f us, max %.2f us (%d surface samples)\n",
-              s.compute_p50_us, s.compute_p99_us, s.compute_max_us, model.surface_sample_count());
-  if (f.realtime) {
-    print_stats_line("lateness", timing.lateness);
-    std::printf(
-        "  deadlines        %zu missed (%.3f%%), %zu watchdog trips (%llu ticks ramped down), "
-        "%.1f Hz achieved of %.0f\n",
-        timing.missed_deadlines,
-        100.0 * timing.missed_deadlines / std::max<std::size_t>(1, s.ticks), timing.watchdog_trips,
-        static_cast<unsigned long long>(timing.watchdog_ramped_ticks), timing.achieved_rate_hz,
-        timing.rate_hz);
-    std::printf(
-        "  force thread     %.3f s CPU in %.3f s wall, preempted %ld times, %zu ticks started "
-        ">1 period late; machine steal %.3f s\n",
-        timing.force_cpu_s, timing.wall_time_s, timing.force_involuntary_switches,
-        timing.stalled_ticks, timing.machine_steal_s);
-    std::printf("  scheduler        timer slack %s; memory lock %s; policy %s; affinity %s\n",
-                timing.scheduler.timer_slack.c_str(), timing.scheduler.memory_lock.c_str(),
-                timing.scheduler.policy.c_str(), timing.scheduler.affinity.c_str());
-    if (f.plastic) {
-      print_stats_line("relax slices", timing.relax_slice);
-      std::printf("  relax thread     busy %.1f%% of the wall time, %.3f s CPU\n",
-                  100.0 * timing.relax_busy_fraction, timing.relax_cpu_s);
-    }
+  print_run_report(f, s, timing, device,
+                   "(" + std::to_string(model.surface_sample_count()) + " surface samples)");
+  if (f.realtime && f.plastic) {
+    print_stats_line("relax slices", timing.relax_slice);
+    std::printf("  relax thread     busy %.1f%% of the wall time, %.3f s CPU\n",
+                100.0 * timing.relax_busy_fraction, timing.relax_cpu_s);
   }
   if (f.plastic) {
     std::printf(
@@ -410,12 +240,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                   recorder->frame_ms_total() / std::max(1, recorder->frames()));
     }
   }
-  if (s.trace_gaps > 0) {
-    std::printf("  trace gaps       %d (tool held for %.3f s)\n", s.trace_gaps, s.trace_held_s);
-  }
-  if (s.nonfinite_forces > 0) {
-    std::printf("  non-finite forces replaced by zero: %zu\n", s.nonfinite_forces);
-  }
+  print_run_footer(s);
   print_warnings(warnings);
   return ReplayResult{s, timing, sculpted};
 }

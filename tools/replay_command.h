@@ -1,0 +1,84 @@
+#pragma once
+// What `hapvox replay` and `hapvox check-timing` share between the models they run (the
+// voxel model in tools/cmd_replay.cc, the proxy FEM in tools/replay_fem.cc): the flags, the
+// result, the session attributes every run writes and the lines every run prints.
+
+#include <string>
+
+#include "haptics/realtime.h"
+#include "haptics/voxel_model.h"
+#include "tools/cli.h"
+#include "tools/render_output.h"
+
+namespace hapvox::cli {
+
+struct ReplayFlags {
+  std::string trace_path;
+  std::string volume;
+  std::string output;
+  bool quiet = false;
+  MappingFlags mapping;
+  TraceFlags trace;
+  TransformFlags transform;
+  ForceFlags force;
+  haptics::DeviceLimits limits;
+  // Sculpting.
+  bool plastic = false;
+  bool realtime = false;
+  std::size_t relax_voxels_per_tick = 2000;
+  double relax_tolerance = 0.02;
+  double normal_density = 1.0;
+  std::string sculpt_out;
+  // Realtime scheduling.
+  bool no_mlock = false;
+  bool no_rt_priority = false;
+  int cpu = -1;
+  bool no_pin = false;
+  double watchdog_periods = 1.0;
+  // Rendering (a render thread in realtime, a frame every N ticks in lockstep).
+  std::string render_dir;
+  double render_fps = 30.0;
+  std::size_t render_every_ticks = 100;
+  RenderFlags render;
+};
+
+// What a replay measured, for the caller to judge.
+struct ReplayResult {
+  haptics::ReplaySummary summary;
+  haptics::TimingSummary timing;
+  haptics::SculptSummary sculpted;
+};
+
+/// The flags every model checks alike (limits, rates, scheduling); InputError naming the flag.
+void check_loop_flags(const ReplayFlags& f);
+
+/// The realtime loop's options from the flags.
+haptics::RealtimeOptions realtime_options(const ReplayFlags& f);
+
+/// The progress bar (stderr), when it is shown.
+haptics::ProgressFn progress_bar(const ReplayFlags& f, const haptics::TraceDevice& device);
+
+/// The attributes of the run itself: command line, trace, volume, clock, limits, transform,
+/// versions.
+void write_run_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
+                          const std::string& command_line, const haptics::TraceColumns& columns,
+                          const engine::IntensityMapping& mapping,
+                          const engine::DensityField& field, const haptics::TraceDevice& device);
+
+/// The summary attributes: summary_*, and in realtime the lateness, deadlines, scheduler.
+void write_summary_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
+                              const haptics::ReplaySummary& s,
+                              const haptics::TimingSummary& timing);
+
+/// The report's first lines (ticks, tool, contact, peak force, compute) and in realtime the
+/// loop's timing; `compute_note` ends the compute line, e.g. "(812 surface samples)".
+void print_run_report(const ReplayFlags& f, const haptics::ReplaySummary& s,
+                      const haptics::TimingSummary& timing, const haptics::TraceDevice& device,
+                      const std::string& compute_note);
+
+/// The report's last lines: trace gaps and non-finite forces.
+void print_run_footer(const haptics::ReplaySummary& s);
+
+void print_stats_line(const char* label, const haptics::DurationStats& d);
+
+}  // namespace hapvox::cli
