@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Configures and builds hapvox.
-# Usage: scripts/build.sh [--target TARGET] [BUILD_DIR] [extra cmake args...]
-# Without --target, everything (the hapvox command and the test suite) is built. The
+# Usage: scripts/build.sh [--target "TARGET..."]... [BUILD_DIR] [extra cmake args...]
+# Without --target, everything (the hapvox command and the test suite) is built; with it,
+# only the targets named (a space-separated list, or --target given again). The
 # compiler runs through ccache when ccache is on PATH (its cache lives under $HOME), told
 # that precompiled headers are safe to cache: without that sloppiness it caches nothing
 # here, every file being compiled with engine/'s precompiled OpenVDB and Eigen headers.
@@ -9,11 +10,14 @@
 # working directory out of the hash, so a clone in another folder (CI's) hits the cache.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-target=()
-if [ "${1:-}" = "--target" ]; then
-  target=(--target "${2:?"--target needs a target name, e.g. hapvox"}")
+targets=()
+while [ "${1:-}" = "--target" ]; do
+  read -ra named <<<"${2:?"--target needs a target name, e.g. hapvox"}"
+  targets+=("${named[@]}")
   shift 2
-fi
+done
+target=()
+if [ ${#targets[@]} -gt 0 ]; then target=(--target "${targets[@]}"); fi
 build_dir=${1:-"$root/build"}
 shift || true
 launcher=()

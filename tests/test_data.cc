@@ -9,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "engine/errors.h"
+
 namespace hapvox::testing {
 
 std::string source_path(const std::string& relative) {
@@ -61,6 +63,16 @@ CommandResult run_hapvox_env(const std::string& environment, const std::string& 
   r.out = read_file(out);
   r.err = read_file(err);
   return r;
+}
+
+std::string input_error_of(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no InputError thrown";
+  return "";
 }
 
 }  // namespace hapvox::testing

@@ -1,6 +1,8 @@
 #pragma once
-// Paths to data shipped in the repository (data/, traces/) and scratch space for tests.
+// Paths to data shipped in the repository (data/, traces/), scratch space for tests, and
+// the message of an InputError for asserting it in full.
 
+#include <functional>
 #include <string>
 
 namespace hapvox::testing {
@@ -25,5 +27,8 @@ struct CommandResult {
 CommandResult run_hapvox(const std::string& args);
 /// The same with environment assignments ("NAME=value ...") before the command.
 CommandResult run_hapvox_env(const std::string& environment, const std::string& args);
+
+/// Runs `body`, expects an InputError, and returns its what() ("" and a failure when none).
+std::string input_error_of(const std::function<void()>& body);
 
 }  // namespace hapvox::testing

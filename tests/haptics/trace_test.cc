@@ -19,6 +19,7 @@
 namespace hapvox::haptics {
 namespace {
 
+using ::hapvox::testing::input_error_of;
 using ::testing::HasSubstr;
 
 // scratch_dir() empties the directory, so call this once per test.
@@ -26,18 +27,6 @@ std::string write_text(const std::string& name, const std::string& text) {
   const std::string path = hapvox::testing::scratch_dir() + "/" + name;
   std::ofstream(path, std::ios::binary) << text;
   return path;
-}
-
-// Runs `body`, expects an InputError, and returns its what().
-template <typename F>
-std::string error_of(F&& body) {
-  try {
-    body();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError thrown";
-  return "";
 }
 
 // A small trace with awkward values, so exact round trips mean something.
@@ -129,7 +118,7 @@ class TraceCsvErrorTest : public ::testing::TestWithParam<BadCsv> {};
 TEST_P(TraceCsvErrorTest, NamesFileAndProblem) {
   const BadCsv& bad = GetParam();
   const std::string path = write_text(std::string(bad.name) + ".csv", bad.text);
-  const std::string what = error_of([&] { read_csv_trace(path); });
+  const std::string what = input_error_of([&] { read_csv_trace(path); });
   EXPECT_THAT(what, HasSubstr(path + ": ")) << what;
   EXPECT_THAT(what, HasSubstr(bad.problem)) << what;
 }
@@ -162,7 +151,7 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(TraceCsvTest, MissingFile) {
   const std::string path = hapvox::testing::scratch_dir() + "/nope.csv";
-  const std::string what = error_of([&] { read_trace(path); });
+  const std::string what = input_error_of([&] { read_trace(path); });
   EXPECT_EQ(what, path + ": cannot open file");
 }
 
@@ -170,11 +159,11 @@ TEST(TraceCsvTest, NonPositiveScalesRejected) {
   const std::string path = write_text("t.csv", "t,x,y,z\n0,0,0,0\n1,0,0,0\n");
   TraceColumns columns;
   columns.seconds_per_time_unit = 0.0;
-  EXPECT_THAT(error_of([&] { read_csv_trace(path, columns); }),
+  EXPECT_THAT(input_error_of([&] { read_csv_trace(path, columns); }),
               HasSubstr(path + ": time scale must be positive"));
   columns.seconds_per_time_unit = 1.0;
   columns.mm_per_position_unit = -1.0;
-  EXPECT_THAT(error_of([&] { read_csv_trace(path, columns); }),
+  EXPECT_THAT(input_error_of([&] { read_csv_trace(path, columns); }),
               HasSubstr(path + ": position scale must be positive"));
 }
 
@@ -247,7 +236,7 @@ TEST(TraceH5Test, IntegerDatasetsConverted) {
 TEST(TraceH5Test, BadFilesNameFileAndProblem) {
   const std::string dir = hapvox::testing::scratch_dir();
   const auto expect_error = [](const std::string& path, const std::string& problem) {
-    const std::string what = error_of([&] { read_h5_trace(path); });
+    const std::string what = input_error_of([&] { read_h5_trace(path); });
     EXPECT_THAT(what, HasSubstr(path + ": " + problem)) << what;
   };
   const std::vector<double> t = {0, 1, 2};
@@ -366,10 +355,11 @@ TEST(TraceResampleTest, GapHoldsTheTool) {
 
 TEST(TraceResampleTest, BadOptions) {
   const Trace trace = sample_linear({0, 1});
-  EXPECT_THAT(error_of([&] { resample(trace, {.rate_hz = 0.0}); }), HasSubstr("resample: rate"));
-  EXPECT_THAT(error_of([&] { resample(trace, {.rate_hz = 1000.0, .max_gap_s = -1.0}); }),
+  EXPECT_THAT(input_error_of([&] { resample(trace, {.rate_hz = 0.0}); }),
+              HasSubstr("resample: rate"));
+  EXPECT_THAT(input_error_of([&] { resample(trace, {.rate_hz = 1000.0, .max_gap_s = -1.0}); }),
               HasSubstr("resample: max gap"));
-  EXPECT_THAT(error_of([&] { resample(sample_linear({0})); }),
+  EXPECT_THAT(input_error_of([&] { resample(sample_linear({0})); }),
               HasSubstr("resample: need at least 2 samples"));
 }
 
@@ -438,7 +428,7 @@ TEST(TraceMakeTest, ParseShape) {
   EXPECT_EQ(parse_trace_shape("press-release", "--shape"), TraceShape::kPressRelease);
   EXPECT_EQ(parse_trace_shape("stroke", "--shape"), TraceShape::kStroke);
   EXPECT_EQ(parse_trace_shape("circle", "--shape"), TraceShape::kCircle);
-  EXPECT_THAT(error_of([] { parse_trace_shape("spiral", "--shape"); }),
+  EXPECT_THAT(input_error_of([] { parse_trace_shape("spiral", "--shape"); }),
               HasSubstr("--shape: unknown trace shape 'spiral'"));
 }
 
@@ -561,7 +551,7 @@ TEST(TraceMakeTest, BadOptions) {
   const auto expect_error = [](auto change, const std::string& problem) {
     TraceMakeOptions o;
     change(o);
-    EXPECT_THAT(error_of([&] { make_trace(o); }), HasSubstr("trace make: " + problem));
+    EXPECT_THAT(input_error_of([&] { make_trace(o); }), HasSubstr("trace make: " + problem));
   };
   expect_error([](TraceMakeOptions& o) { o.speed_mm_s = 0; }, "speed must be positive");
   expect_error([](TraceMakeOptions& o) { o.rate_hz = -5; }, "rate must be positive");

@@ -8,69 +8,26 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
-#include <new>
 #include <numbers>
 
+#include "alloc_counter.h"
 #include "engine/errors.h"
 #include "engine/fem/corotational.h"
 #include "fem_fixtures.h"
 
-// Counts allocations on this thread: operator new in every replaceable form, and malloc
-// itself (fem_tests links with --wrap=malloc, so Eigen's heap temporaries in the library
-// count too). Pointers are freed by the family that made them, as sanitizers require.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-namespace {
-thread_local std::uint64_t allocations = 0;
-void* counted(std::size_t size, std::size_t align) {
-  ++allocations;
-  if (size == 0) size = 1;
-  if (align <= alignof(std::max_align_t)) return std::malloc(size);
-  return std::aligned_alloc(align, (size + align - 1) / align * align);
-}
-void* counted_or_throw(std::size_t size, std::size_t align) {
-  if (void* p = counted(size, align)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-
+// malloc counts too: fem_tests links with --wrap=malloc, so Eigen's heap temporaries in the
+// library count as well as operator new.
 extern "C" void* __real_malloc(std::size_t size);
 extern "C" void* __wrap_malloc(std::size_t size) {
-  ++allocations;
+  ++hapvox::testing::allocations_on_this_thread;
   return __real_malloc(size);
 }
-
-void* operator new(std::size_t n) { return counted_or_throw(n, 0); }
-void* operator new[](std::size_t n) { return counted_or_throw(n, 0); }
-void* operator new(std::size_t n, std::align_val_t a) {
-  return counted_or_throw(n, std::size_t(a));
-}
-void* operator new[](std::size_t n, std::align_val_t a) {
-  return counted_or_throw(n, std::size_t(a));
-}
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return counted(n, 0); }
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return counted(n, 0); }
-void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  return counted(n, std::size_t(a));
-}
-void* operator new[](std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  return counted(n, std::size_t(a));
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
 
 namespace hapvox::engine::fem {
 namespace {
 
 using fixtures::vertices_where;
+using ::hapvox::testing::allocations_on_this_thread;
 
 const Eigen::Vector3d kOrigin(0.5, -1.0, 2.0);
 
@@ -161,18 +118,18 @@ TEST(ContactCompliance, PerTickForcesDoNotAllocate) {
   const Eigen::VectorXd u_c = contact_displacements(compliance.dof_count());
   std::array<double, ContactCompliance::kMaxDofs> f_c{};
   // Probe: the counter sees the library's Eigen heap use.
-  const std::uint64_t probe = allocations;
+  const std::uint64_t probe = allocations_on_this_thread;
   const Eigen::VectorXd heap = fem.solve_free(Eigen::VectorXd::Ones(fem.partition().free_count()));
-  ASSERT_GT(allocations, probe) << "the allocation counter is blind";
+  ASSERT_GT(allocations_on_this_thread, probe) << "the allocation counter is blind";
 
   const int ticks = 20000;
-  const std::uint64_t before = allocations;
+  const std::uint64_t before = allocations_on_this_thread;
   const auto start = std::chrono::steady_clock::now();
   bool ok = true;
   for (int tick = 0; tick < ticks; ++tick) ok = compliance.contact_forces_n(view(u_c), f_c) && ok;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_EQ(allocations, before);
+  EXPECT_EQ(allocations_on_this_thread, before);
   EXPECT_TRUE(ok);
   EXPECT_TRUE(std::isfinite(f_c[0]));
   std::printf("[ measured ] 1 kHz tick with 16 contact vertices: %.2f us\n", 1e6 * seconds / ticks);

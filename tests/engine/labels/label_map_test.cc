@@ -11,7 +11,6 @@
 #include "engine/errors.h"
 #include "engine/volume_io.h"
 #include "four_spheres.h"
-#include "input_error.h"
 #include "test_data.h"
 
 namespace hapvox::engine::labels {
