@@ -120,6 +120,20 @@ std::vector<std::pair<std::string, std::string>> machine_description() {
   return m;
 }
 
+std::string machine_json(const std::vector<std::pair<std::string, std::string>>& machine) {
+  std::string json = "{";
+  for (std::size_t i = 0; i < machine.size(); ++i) {
+    json += (i ? ", " : "") + json_string(machine[i].first) + ": " + json_string(machine[i].second);
+  }
+  return json + "}";
+}
+
+std::string machine_csv_comments(const std::vector<std::pair<std::string, std::string>>& machine) {
+  std::string text;
+  for (const auto& [key, value] : machine) text += "# " + key + ": " + value + "\n";
+  return text;
+}
+
 std::string json_string(const std::string& text) {
   std::string out = "\"";
   for (char c : text) {

@@ -39,6 +39,10 @@ std::map<std::string, double> measure(const std::vector<std::pair<std::string, B
 /// The machine a bench ran on (CPU, cores, memory, kernel, compiler, build type, library
 /// versions, date), as key-value pairs for the CSV and JSON outputs.
 std::vector<std::pair<std::string, std::string>> machine_description();
+/// The description as a JSON object ({"cpu": ..., ...}) and as CSV comment lines
+/// ("# cpu: ...\n" each).
+std::string machine_json(const std::vector<std::pair<std::string, std::string>>& machine);
+std::string machine_csv_comments(const std::vector<std::pair<std::string, std::string>>& machine);
 
 /// `text` as a JSON string literal (quotes and backslashes escaped, control characters
 /// dropped).

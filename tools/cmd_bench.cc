@@ -158,12 +158,7 @@ void run_bench_table1(Table1Flags f) {
   csv << "measure,volume,diameter_voxels,unit,ours,naive,seed,ours_over_seed,ours_over_naive,"
          "note\n";
   std::ostringstream json;
-  json << "{\n  \"machine\": {";
-  for (std::size_t i = 0; i < machine.size(); ++i) {
-    json << (i ? ", " : "") << json_string(machine[i].first) << ": "
-         << json_string(machine[i].second);
-  }
-  json << "},\n  \"rows\": [\n";
+  json << "{\n  \"machine\": " << machine_json(machine) << ",\n  \"rows\": [\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const Table1Row& r = rows[i];
     std::printf("%-11s %6d^3 %9d %9s %13.6g %13.6g %13.6g %9.3gx %9.3gx\n", r.measure.c_str(),
@@ -180,10 +175,8 @@ void run_bench_table1(Table1Flags f) {
          << (i + 1 < rows.size() ? "," : "") << "\n";
   }
   json << "  ]\n}\n";
-  std::string machine_csv;
-  for (const auto& [key, value] : machine) machine_csv += "# " + key + ": " + value + "\n";
   if (!f.csv.empty()) {
-    write_atomically(f.csv, machine_csv + csv.str());
+    write_atomically(f.csv, machine_csv_comments(machine) + csv.str());
     std::printf("\nwrote %s\n", f.csv.c_str());
   }
   if (!f.json.empty()) {
