@@ -81,7 +81,9 @@ TEST(BenchFemCli, TinyRunPrintsTheTablesAndWritesCountsOfTheLatticesItNames) {
     EXPECT_GT(std::stod(row.at("corot_hz")), 0.0);
     EXPECT_GT(std::stod(row.at("naive_corot_hz")), 0.0);
     EXPECT_LE(std::stod(row.at("tick_p50_us")), std::stod(row.at("tick_p99_us")));
-    EXPECT_LE(std::stod(row.at("naive_cg_residual")), 1e-12);
+    // CG stops on its recursively updated residual (<= 1e-12); the true one is within
+    // round-off of that.
+    EXPECT_LE(std::stod(row.at("naive_cg_residual")), 1e-10);
     // The condensed contact forces are those of the full solve.
     EXPECT_LT(std::stod(row.at("tick_force_rel_error")), 1e-6);
     if (row.at("kind") == "spheres") {
