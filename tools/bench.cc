@@ -1,13 +1,17 @@
 #include "tools/bench.h"
 
+#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <system_error>
 
 #include "engine/errors.h"
+#include "haptics/session.h"
 
 namespace hapvox::cli {
 
@@ -75,6 +79,87 @@ std::map<std::string, double> measure(const std::vector<std::pair<std::string, B
   benchmark::RunSpecifiedBenchmarks(&collector);
   benchmark::ClearRegisteredBenchmarks();
   return collector.median_ns;
+}
+
+namespace {
+
+std::string read_first_line_with(const std::string& path, const std::string& key) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(key, 0) == 0) {
+      const auto colon = line.find(':');
+      return colon == std::string::npos ? line
+                                        : line.substr(line.find_first_not_of(" \t", colon + 1));
+    }
+  }
+  return "unknown";
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> machine_description() {
+  std::vector<std::pair<std::string, std::string>> m;
+  m.emplace_back("cpu", read_first_line_with("/proc/cpuinfo", "model name"));
+  m.emplace_back("online_cpus", std::to_string(sysconf(_SC_NPROCESSORS_ONLN)));
+  m.emplace_back("memory", read_first_line_with("/proc/meminfo", "MemTotal"));
+  utsname u{};
+  if (uname(&u) == 0)
+    m.emplace_back("kernel", std::string(u.sysname) + " " + u.release + " " + u.machine);
+  m.emplace_back("compiler", "gcc " __VERSION__);
+#ifdef NDEBUG
+  m.emplace_back("build", "release (NDEBUG)");
+#else
+  m.emplace_back("build", "debug");
+#endif
+  for (const auto& [name, version] : haptics::library_versions()) m.emplace_back(name, version);
+  char date[64];
+  const std::time_t now = std::time(nullptr);
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  m.emplace_back("date", date);
+  return m;
+}
+
+std::string machine_json(const std::vector<std::pair<std::string, std::string>>& machine) {
+  std::string json = "{";
+  for (std::size_t i = 0; i < machine.size(); ++i) {
+    json += (i ? ", " : "") + json_string(machine[i].first) + ": " + json_string(machine[i].second);
+  }
+  return json + "}";
+}
+
+std::string machine_csv_comments(const std::vector<std::pair<std::string, std::string>>& machine) {
+  std::string text;
+  for (const auto& [key, value] : machine) text += "# " + key + ": " + value + "\n";
+  return text;
+}
+
+std::string json_string(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream out;
+  out.precision(10);
+  out << v;
+  return out.str();
+}
+
+// Writes PATH.partial, then renames: a failed run leaves no half-written file.
+void write_atomically(const std::string& path, const std::string& text) {
+  {
+    std::ofstream out(path + ".partial");
+    out << text;
+    if (!out) throw InputError(path, "cannot write");
+  }
+  std::filesystem::rename(path + ".partial", path);
 }
 
 engine::DensityField make_half_block(int n) {

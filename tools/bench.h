@@ -1,7 +1,7 @@
 #pragma once
 // What the `hapvox bench` subcommands share: Google Benchmark set up once and read back as
-// medians, integer lists, the half-filled clay block they measure on, the Table 1 row they
-// fill, and where the bundled data is.
+// medians, integer lists, the machine description and JSON/CSV writing, the half-filled
+// clay block they measure on, the Table 1 row they fill, and where the bundled data is.
 
 #include <benchmark/benchmark.h>
 
@@ -35,6 +35,23 @@ void init_benchmark(double min_time_s, int repetitions);
 using BenchFn = std::function<void(benchmark::State&)>;
 /// Runs the named benchmarks in one go; median nanoseconds per iteration by name.
 std::map<std::string, double> measure(const std::vector<std::pair<std::string, BenchFn>>& fns);
+
+/// The machine a bench ran on (CPU, cores, memory, kernel, compiler, build type, library
+/// versions, date), as key-value pairs for the CSV and JSON outputs.
+std::vector<std::pair<std::string, std::string>> machine_description();
+/// The description as a JSON object ({"cpu": ..., ...}) and as CSV comment lines
+/// ("# cpu: ...\n" each).
+std::string machine_json(const std::vector<std::pair<std::string, std::string>>& machine);
+std::string machine_csv_comments(const std::vector<std::pair<std::string, std::string>>& machine);
+
+/// `text` as a JSON string literal (quotes and backslashes escaped, control characters
+/// dropped).
+std::string json_string(const std::string& text);
+/// `v` as a JSON number; null when it is not finite.
+std::string json_number(double v);
+/// Writes PATH.partial, then renames: a failed run leaves no half-written file. Throws
+/// InputError(path, "cannot write").
+void write_atomically(const std::string& path, const std::string& text);
 
 /// A clay block filling the lower half of an n^3 volume of 1 mm voxels, stored as dense
 /// leaves as a loaded scan would be.

@@ -16,18 +16,15 @@
 #include <memory>
 #include <sstream>
 
-#include <sys/utsname.h>
-#include <unistd.h>
-
-#include <ctime>
-
 #include "engine/errors.h"
 #include "engine/version.h"
-#include "haptics/session.h"
 #include "tools/bench.h"
 #include "tools/cli.h"
 
 namespace hapvox::cli {
+
+void add_bench_fem_command(CLI::App& bench);  // tools/cmd_bench_fem.cc
+
 namespace {
 
 struct BenchFlags {
@@ -133,69 +130,6 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
   return table;
 }
 
-std::string read_first_line_with(const std::string& path, const std::string& key) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind(key, 0) == 0) {
-      const auto colon = line.find(':');
-      return colon == std::string::npos ? line
-                                        : line.substr(line.find_first_not_of(" \t", colon + 1));
-    }
-  }
-  return "unknown";
-}
-
-std::vector<std::pair<std::string, std::string>> machine_description() {
-  std::vector<std::pair<std::string, std::string>> m;
-  m.emplace_back("cpu", read_first_line_with("/proc/cpuinfo", "model name"));
-  m.emplace_back("online_cpus", std::to_string(sysconf(_SC_NPROCESSORS_ONLN)));
-  m.emplace_back("memory", read_first_line_with("/proc/meminfo", "MemTotal"));
-  utsname u{};
-  if (uname(&u) == 0)
-    m.emplace_back("kernel", std::string(u.sysname) + " " + u.release + " " + u.machine);
-  m.emplace_back("compiler", "gcc " __VERSION__);
-#ifdef NDEBUG
-  m.emplace_back("build", "release (NDEBUG)");
-#else
-  m.emplace_back("build", "debug");
-#endif
-  for (const auto& [name, version] : haptics::library_versions()) m.emplace_back(name, version);
-  char date[64];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  m.emplace_back("date", date);
-  return m;
-}
-
-std::string json_string(const std::string& text) {
-  std::string out = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) continue;
-    out += c;
-  }
-  return out + "\"";
-}
-
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream out;
-  out.precision(10);
-  out << v;
-  return out.str();
-}
-
-// Writes PATH.partial, then renames: a failed run leaves no half-written file.
-void write_atomically(const std::string& path, const std::string& text) {
-  {
-    std::ofstream out(path + ".partial");
-    out << text;
-    if (!out) throw InputError(path, "cannot write");
-  }
-  std::filesystem::rename(path + ".partial", path);
-}
-
 struct Table1Flags {
   BenchFlags force;
   PlasticBenchFlags plastic;
@@ -224,12 +158,7 @@ void run_bench_table1(Table1Flags f) {
   csv << "measure,volume,diameter_voxels,unit,ours,naive,seed,ours_over_seed,ours_over_naive,"
          "note\n";
   std::ostringstream json;
-  json << "{\n  \"machine\": {";
-  for (std::size_t i = 0; i < machine.size(); ++i) {
-    json << (i ? ", " : "") << json_string(machine[i].first) << ": "
-         << json_string(machine[i].second);
-  }
-  json << "},\n  \"rows\": [\n";
+  json << "{\n  \"machine\": " << machine_json(machine) << ",\n  \"rows\": [\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const Table1Row& r = rows[i];
     std::printf("%-11s %6d^3 %9d %9s %13.6g %13.6g %13.6g %9.3gx %9.3gx\n", r.measure.c_str(),
@@ -246,10 +175,8 @@ void run_bench_table1(Table1Flags f) {
          << (i + 1 < rows.size() ? "," : "") << "\n";
   }
   json << "  ]\n}\n";
-  std::string machine_csv;
-  for (const auto& [key, value] : machine) machine_csv += "# " + key + ": " + value + "\n";
   if (!f.csv.empty()) {
-    write_atomically(f.csv, machine_csv + csv.str());
+    write_atomically(f.csv, machine_csv_comments(machine) + csv.str());
     std::printf("\nwrote %s\n", f.csv.c_str());
   }
   if (!f.json.empty()) {
@@ -333,6 +260,7 @@ void add_bench_command(CLI::App& app) {
   bench->callback([bench, plain_flags] {
     if (bench->get_subcommands().empty()) run_bench_table1(*plain_flags);
   });
+  add_bench_fem_command(*bench);
   // Checked once bench's command line is parsed, before any benchmark runs (subcommands'
   // callbacks come first): plain bench's options given before a subcommand are refused.
   bench->parse_complete_callback([bench] {
