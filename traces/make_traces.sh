@@ -41,3 +41,12 @@ PY
 # face with the 8 mm tool, plough 40 mm along +x, lift.
 "$hapvox" trace make stroke -o "$here/clay_stroke.csv" \
   --start-mm 44,64,72 --travel-mm 12 --speed-mm-s 10 --length-mm 40
+
+# Nakao et al.'s Fig. 5 on the `four-spheres` generator (128^3, 1 mm voxels; materials in
+# data/four_spheres.toml), replayed with --model fem --interaction grab: pull the white
+# sphere's right side (+x) 8 mm while its left side is fixed, and grab the red sphere
+# 8 mm toward the blue one.
+"$hapvox" trace make press -o "$here/fig5_pull.csv" \
+  --start-mm 58.6,41.33,85.67 --direction 1,0,0 --travel-mm 8 --speed-mm-s 8 --hold-s 0.5
+"$hapvox" trace make press -o "$here/fig5_grab.csv" \
+  --start-mm 41.33,85.67,41.33 --direction 1,0,1 --travel-mm 8 --speed-mm-s 8 --hold-s 0.5
