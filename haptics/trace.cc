@@ -20,6 +20,7 @@
 
 #include "engine/check.h"
 #include "engine/errors.h"
+#include "haptics/hdf5_id.h"
 
 namespace hapvox::haptics {
 namespace {
@@ -171,29 +172,6 @@ void check_trace_shape(const Trace& trace, const std::string& source) {
 }
 
 // --- HDF5 ---------------------------------------------------------------------------
-
-// Owns one HDF5 identifier; closes it with the matching H5?close.
-class H5Id {
- public:
-  H5Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  H5Id(const H5Id&) = delete;
-  H5Id& operator=(const H5Id&) = delete;
-  ~H5Id() {
-    if (id_ >= 0) close_(id_);
-  }
-  hid_t get() const { return id_; }
-  bool valid() const { return id_ >= 0; }
-  // Closes now and reports failure (a file's close is where buffered writes land).
-  bool close() {
-    const herr_t status = id_ >= 0 ? close_(id_) : -1;
-    id_ = -1;
-    return status >= 0;
-  }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
 
 // HDF5 prints its error stack to stderr by default; our messages say it better.
 void silence_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }

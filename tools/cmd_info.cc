@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "engine/errors.h"
+#include "haptics/mesh_file.h"
 #include "haptics/session.h"
 #include "tools/cli.h"
 
@@ -92,6 +93,20 @@ void info_session(const std::string& path) {
   }
 }
 
+// The /mesh group of a mesh file (`hapvox mesh`) or a session.
+void print_mesh(const std::string& path) {
+  const haptics::MeshFileInfo mesh = haptics::read_mesh_info(path);
+  std::printf("  mesh             %d vertices (%d fixed), %d tets\n", mesh.vertex_count,
+              mesh.fixed_vertex_count, mesh.tet_count);
+  std::printf("  dihedral angles  %.2f - %.2f deg\n", mesh.min_dihedral_deg, mesh.max_dihedral_deg);
+  std::printf("  materials        %s\n", mesh.materials_source.c_str());
+  for (const auto& [label, l] : mesh.labels) {
+    std::printf("  label %-10d %d tets, %.6g mm^3 (%+.2f %% of its voxels'), E %g Pa, nu %g\n",
+                label, l.tet_count, l.volume_mm3, 100 * l.relative_volume_error, l.youngs_pa,
+                l.poisson);
+  }
+}
+
 void run_info(const InfoFlags& f) {
   namespace fs = std::filesystem;
   const std::string ext = fs::path(f.path).extension().string();
@@ -115,6 +130,10 @@ void run_info(const InfoFlags& f) {
     }();
     if (!probe.datasets.empty()) {
       info_session(f.path);
+      if (haptics::has_mesh_group(f.path)) print_mesh(f.path);
+    } else if (haptics::has_mesh_group(f.path)) {
+      std::printf("%s: hapvox proxy mesh\n", f.path.c_str());
+      print_mesh(f.path);
     } else {
       info_trace(f);
     }
@@ -130,7 +149,8 @@ void run_info(const InfoFlags& f) {
 void add_info_command(CLI::App& app) {
   auto flags = std::make_shared<InfoFlags>();
   CLI::App* cmd = app.add_subcommand(
-      "info", "Describe a volume (.nrrd, .nhdr, .vdb, generator), trace (.csv, .h5) or session");
+      "info",
+      "Describe a volume (.nrrd, .nhdr, .vdb, generator), trace (.csv, .h5), session or mesh");
   cmd->add_option("file", flags->path, "File or generator to describe")->required();
   flags->mapping.add_to(*cmd);
   flags->trace.add_to(*cmd);

@@ -17,6 +17,7 @@
 namespace hapvox::cli {
 void add_render_command(CLI::App& app);          // tools/cmd_render.cc
 void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
+void add_mesh_command(CLI::App& app);            // tools/cmd_mesh.cc
 }  // namespace hapvox::cli
 
 namespace {
@@ -81,6 +82,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_trace_command(app);
   hapvox::cli::add_render_command(app);
   hapvox::cli::add_validate_command(app);
+  hapvox::cli::add_mesh_command(app);
   try {
     check_command_names(app, argc, argv);
     app.parse(argc, argv);

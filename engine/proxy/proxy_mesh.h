@@ -21,11 +21,11 @@ namespace hapvox::engine::proxy {
 
 /// A built proxy mesh: the mesh, per-tet materials, per-vertex classes and the report.
 struct ProxyMesh {
-  fem::TetMesh mesh;                              // rest positions (world mm), tets, labels
-  std::vector<fem::TetMaterial> materials;        // one per tet, from its label
-  std::vector<fem::VertexClass> vertex_classes;   // kFixed or kFree (kConstrained at run time)
-  fem::ConformingMeshReport report;               // counts, dihedral range, volume errors
-  std::string materials_source;                   // the materials file, as named in errors
+  fem::TetMesh mesh;                             // rest positions (world mm), tets, labels
+  std::vector<fem::TetMaterial> materials;       // one per tet, from its label
+  std::vector<fem::VertexClass> vertex_classes;  // kFixed or kFree (kConstrained at run time)
+  fem::ConformingMeshReport report;              // counts, dihedral range, volume errors
+  std::string materials_source;                  // the materials file, as named in errors
 };
 
 /// How the mesh is built over the label map.
@@ -40,10 +40,21 @@ struct ProxyMeshOptions {
 /// Builds the proxy mesh of `labels` (every label present must have a material, else
 /// InputError(materials.source, ...)); the label function is the voxel's label at a world
 /// point, the box is the volume's voxel-centre box, and reference volumes per label are the
-/// voxel counts times the voxel volume. Vertex classes: fixed labels and fixed regions
-/// (resolved on `labels`) give kFixed.
+/// voxel counts times the voxel volume (a voxel on the box's faces counts with the part of its
+/// cell inside the box: half on a face, a quarter on an edge, an eighth at a corner, so the
+/// background's error is not the half-voxel rim the box leaves out). Vertex classes: every
+/// vertex of a tet of a fixed label, every vertex in a fixed region without a label, and in a
+/// region with a label every vertex of that label's tets in it, is kFixed. A tet whose label
+/// has no material is InputError(materials.source, ...). Bad options: InputError("proxy
+/// mesh", ...) from build_conforming_mesh.
 ProxyMesh build_proxy_mesh(const labels::LabelMap& labels, const labels::Materials& materials,
                            const ProxyMeshOptions& options = {});
+
+/// The box the mesh covers: from the first voxel's centre to the last's (world mm).
+Eigen::AlignedBox3d voxel_centre_box(const labels::LabelMap& labels);
+
+/// The number of kFixed vertices.
+int fixed_vertex_count(const ProxyMesh& proxy);
 
 /// The DOFs of the fixed vertices (3 per vertex, in vertex order): the FEM's Dirichlet set.
 std::vector<int> fixed_dofs(const ProxyMesh& proxy);

@@ -1,0 +1,182 @@
+// `hapvox mesh` end to end: the proxy mesh written with its XDMF file and a report that
+// matches the file; one-line errors (exit 2) for each kind of bad input, nothing written.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+
+#include "engine/labels/four_spheres.h"
+#include "haptics/session.h"
+#include "test_data.h"
+
+namespace hapvox {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::run_hapvox;
+using testing::scratch_dir;
+using testing::source_path;
+
+const char* const kPhantom = "four-spheres:dims=24";
+
+std::string four_spheres_toml() { return source_path("data/four_spheres.toml"); }
+
+// One [[material]] table per label in `labels`, with E and nu as given.
+std::string materials_text(const std::vector<int>& labels, const std::string& youngs = "1e6",
+                           const std::string& poisson = "0.45") {
+  std::string text;
+  for (int label : labels) {
+    text += "[[material]]\nlabel = " + std::to_string(label) + "\nyoungs_modulus_pa = " + youngs +
+            "\npoisson_ratio = " + poisson + "\n";
+  }
+  return text;
+}
+
+std::string write(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+// A bad-input run: exit 2, exactly one line on stderr, equal to `expected`, and no mesh.
+void expect_mesh_error(const std::string& dir, const std::string& args,
+                       const std::string& expected) {
+  const auto r = run_hapvox("mesh " + args);
+  EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+  EXPECT_EQ(r.err, "hapvox: error: " + expected + "\n") << args;
+  EXPECT_FALSE(fs::exists(dir + "/out.h5")) << args;
+  EXPECT_FALSE(fs::exists(dir + "/out.h5.partial")) << args;
+  EXPECT_FALSE(fs::exists(dir + "/out.xdmf")) << args;
+}
+
+// The integer printed after `label` on a line of the report.
+long printed(const std::string& out, const std::string& label) {
+  std::smatch m;
+  if (!std::regex_search(out, m, std::regex(label + " +([0-9]+)"))) return -1;
+  return std::stol(m[1]);
+}
+
+TEST(MeshCli, BuildsTheFourSpheresMeshAndReportsWhatItWrote) {
+  const std::string dir = scratch_dir();
+  const std::string mesh = dir + "/phantom.h5";
+  const auto r = run_hapvox(std::string("mesh ") + kPhantom + " --materials " +
+                            four_spheres_toml() + " -o " + mesh + " --spacing-mm 4.32");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  std::printf("%s", r.out.c_str());
+  ASSERT_TRUE(fs::exists(mesh));
+  ASSERT_TRUE(fs::exists(dir + "/phantom.xdmf"));
+  EXPECT_FALSE(fs::exists(mesh + ".partial"));
+
+  const long vertices = printed(r.out, "vertices");
+  const long tets = printed(r.out, "tets");
+  const std::vector<double> classes = haptics::read_session_column(mesh, "/mesh/vertex_class");
+  const std::vector<double> labels = haptics::read_session_column(mesh, "/mesh/tet_label");
+  EXPECT_EQ(vertices, static_cast<long>(classes.size()));
+  EXPECT_EQ(tets, static_cast<long>(labels.size()));
+  EXPECT_EQ(haptics::read_session_column(mesh, "/mesh/rest_mm").size(), 3u * vertices);
+  const long fixed = std::count(classes.begin(), classes.end(), 2.0);
+  EXPECT_GT(fixed, 0);
+  EXPECT_NE(r.out.find("(" + std::to_string(fixed) + " fixed)"), std::string::npos) << r.out;
+  for (int label = 0; label <= 4; ++label) {
+    EXPECT_NE(r.out.find("label " + std::to_string(label) + " "), std::string::npos) << r.out;
+  }
+  EXPECT_NE(r.out.find("dihedral angles"), std::string::npos);
+  EXPECT_NE(r.out.find("build time"), std::string::npos);
+  EXPECT_NE(r.out.find("wrote " + mesh + " and " + dir + "/phantom.xdmf"), std::string::npos);
+
+  // `hapvox info` describes the file with the same counts.
+  const auto info = run_hapvox("info " + mesh);
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("hapvox proxy mesh"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find(std::to_string(vertices) + " vertices (" + std::to_string(fixed) +
+                          " fixed), " + std::to_string(tets) + " tets"),
+            std::string::npos)
+      << info.out;
+  EXPECT_NE(info.out.find("E 1e+08 Pa, nu 0.45"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find(four_spheres_toml()), std::string::npos) << info.out;
+}
+
+TEST(MeshCli, SeedsMakeTheLabels) {
+  const std::string dir = scratch_dir();
+  const testing::FourSpheres phantom{24, 1.0};
+  const engine::Vec3d c = phantom.centre_mm(1);
+  const std::string materials = write(dir + "/m.toml", materials_text({0, 5}));
+  const auto r =
+      run_hapvox(std::string("mesh ") + kPhantom + " --materials " + materials + " --seed " +
+                 std::to_string(c.x()) + "," + std::to_string(c.y()) + "," + std::to_string(c.z()) +
+                 ":5 --seed-tolerance 0.05 -o " + dir + "/out.h5");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<double> labels =
+      haptics::read_session_column(dir + "/out.h5", "/mesh/tet_label");
+  EXPECT_EQ(std::set<double>(labels.begin(), labels.end()), (std::set<double>{0, 5}));
+}
+
+TEST(MeshCli, EachBadInputIsOneLineAndExitTwo) {
+  const std::string dir = scratch_dir();
+  const std::string out = " -o " + dir + "/out.h5";
+  const std::string phantom = std::string(kPhantom);
+
+  expect_mesh_error(dir, phantom + out, "--materials is required (see hapvox --help)");
+  expect_mesh_error(dir, phantom + " --materials " + dir + "/none.toml" + out,
+                    dir + "/none.toml: cannot open file");
+
+  const std::string zero_e = write(dir + "/zero_e.toml", materials_text({0}, "0"));
+  expect_mesh_error(dir, phantom + " --materials " + zero_e + out,
+                    zero_e + ":3: Young's modulus must be positive and finite, got 0 Pa");
+  const std::string half_nu = write(dir + "/half_nu.toml", materials_text({0}, "1e6", "0.5"));
+  expect_mesh_error(dir, phantom + " --materials " + half_nu + out,
+                    half_nu + ":4: Poisson's ratio must lie in (-1, 0.5), got 0.5");
+  const std::string minus_one = write(dir + "/minus_one.toml", materials_text({0}, "1e6", "-1"));
+  expect_mesh_error(dir, phantom + " --materials " + minus_one + out,
+                    minus_one + ":4: Poisson's ratio must lie in (-1, 0.5), got -1");
+
+  // A label the materials file lacks: from a label volume (the block's 1s), or a seed.
+  const std::string two_labels = write(dir + "/two.toml", materials_text({0}));
+  expect_mesh_error(dir, phantom + " --materials " + two_labels + " --labels block:dims=24" + out,
+                    two_labels + ": label 1 has no material (6912 voxels)");
+  const testing::FourSpheres spheres{24, 1.0};
+  const engine::Vec3d red = spheres.centre_mm(2);
+  expect_mesh_error(dir,
+                    phantom + " --materials " + two_labels + " --seed-tolerance 0.05 --seed " +
+                        std::to_string(red.x()) + "," + std::to_string(red.y()) + "," +
+                        std::to_string(red.z()) + ":3" + out,
+                    two_labels + ": label 3 has no material (" +
+                        std::to_string(spheres.lattice_count(2)) + " voxels)");
+
+  expect_mesh_error(
+      dir, phantom + " --materials " + four_spheres_toml() + " --labels block:dims=16" + out,
+      "block:dims=16: label volume is 16x16x16 voxels but the intensity volume " + phantom +
+          " is 24x24x24");
+  expect_mesh_error(dir, phantom + " --materials " + two_labels + out,
+                    two_labels +
+                        ": no labels: the file gives no intensity ranges, and no label volume "
+                        "(--labels) or seeds (--seed) were given");
+  expect_mesh_error(dir,
+                    phantom + " --materials " + four_spheres_toml() +
+                        " --labels block:dims=24 --seed 1,2,3" + out,
+                    "--labels excludes --seed (see hapvox --help)");
+  expect_mesh_error(dir, phantom + " --materials " + four_spheres_toml() + " --seed 1,2" + out,
+                    "--seed: expected X,Y,Z, got '1,2'");
+  expect_mesh_error(dir, phantom + " --materials " + four_spheres_toml() + " --seed 1,2,3:0" + out,
+                    "--seed: expected a label in [1, 16777216] after ':', got '0'");
+
+  // An output that is an input: the materials file, or the XDMF file written beside it.
+  const std::string materials = write(dir + "/m.toml", materials_text({0}));
+  expect_mesh_error(dir, phantom + " --materials " + materials + " -o " + materials,
+                    materials + ": -o would overwrite the input materials file " + materials);
+  EXPECT_EQ(testing::read_file(materials), materials_text({0}));
+  const std::string xdmf = write(dir + "/in.xdmf", "<Xdmf/>");
+  expect_mesh_error(dir, xdmf + " --materials " + materials + " -o " + dir + "/in.h5",
+                    xdmf + ": -o's XDMF file would overwrite the input volume " + xdmf);
+  EXPECT_FALSE(fs::exists(dir + "/in.h5"));
+  expect_mesh_error(dir, phantom + " --materials " + materials + " -o " + dir + "/no/out.h5",
+                    dir + "/no/out.h5: output directory " + dir + "/no does not exist");
+}
+
+}  // namespace
+}  // namespace hapvox

@@ -1,0 +1,90 @@
+#include "tools/fem_options.h"
+
+#include <charconv>
+
+#include "engine/errors.h"
+#include "engine/labels/label_map.h"
+#include "engine/labels/materials.h"
+#include "engine/proxy/label_source.h"
+
+namespace hapvox::cli {
+namespace {
+
+// "X,Y,Z[:LABEL]"; a seed without a label gets `default_label`.
+engine::labels::Seed parse_seed(const std::string& text, engine::labels::Label default_label) {
+  engine::labels::Seed seed;
+  const std::size_t colon = text.find(':');
+  seed.point_mm = parse_vec3(text.substr(0, colon), "--seed");
+  seed.label = default_label;
+  if (colon != std::string::npos) {
+    const std::string label = text.substr(colon + 1);
+    const auto [end, ec] = std::from_chars(label.data(), label.data() + label.size(), seed.label);
+    if (ec != std::errc() || end != label.data() + label.size() || label.empty() ||
+        seed.label <= 0 || seed.label > engine::labels::kMaxLabel) {
+      throw InputError("--seed", "expected a label in [1, " +
+                                     std::to_string(engine::labels::kMaxLabel) +
+                                     "] after ':', got '" + label + "'");
+    }
+  }
+  return seed;
+}
+
+}  // namespace
+
+void add_fem_options(CLI::App& app, FemCliOptions& options) {
+  app.add_option("--materials", options.materials,
+                 "Materials TOML file: E, nu and fixed per label (docs/materials.md)");
+  auto* labels = app.add_option("--labels", options.labels,
+                                "Label volume (integer voxels, same grid as the volume)");
+  auto* seeds = app.add_option("--seed", options.seeds,
+                               "X,Y,Z[:LABEL] (mm): grow LABEL's region from this point "
+                               "(repeatable; labels default to 1, 2, ...)")
+                    ->expected(1)
+                    ->take_all();
+  labels->excludes(seeds);
+  app.add_option("--seed-tolerance", options.seed_tolerance,
+                 "Intensity difference a seed's region accepts (default: 10 % of the "
+                 "volume's intensity range)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--spacing-mm", options.spacing_mm,
+                 "Mesh lattice spacing (default: the volume's shortest side / 8)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--boundary-levels", options.boundary_levels,
+                 "Halvings of the spacing at label boundaries (0-8)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 8));
+}
+
+std::vector<InputPath> fem_inputs(const FemCliOptions& options) {
+  std::vector<InputPath> inputs;
+  if (!options.materials.empty()) inputs.push_back({options.materials, "materials file"});
+  for (InputPath& label : volume_inputs(options.labels)) {
+    label.what = label.what == "volume" ? "label volume" : "label volume data file";
+    inputs.push_back(std::move(label));
+  }
+  return inputs;
+}
+
+engine::proxy::ProxyMesh build_proxy_from_cli(const std::string& volume_spec,
+                                              const FemCliOptions& options) {
+  if (options.materials.empty()) {
+    throw InputError("--materials", "the proxy model needs a materials file");
+  }
+  // The cheap checks first: a bad materials file or seed fails before the volume is read.
+  const engine::labels::Materials materials = engine::labels::read_materials(options.materials);
+  engine::proxy::LabelSourceOptions source;
+  source.intensity_name = volume_spec;
+  source.label_volume = options.labels;
+  for (std::size_t i = 0; i < options.seeds.size(); ++i) {
+    source.seeds.push_back(parse_seed(options.seeds[i], static_cast<int>(i) + 1));
+  }
+  if (options.seed_tolerance >= 0) source.seed_tolerance = options.seed_tolerance;
+  const engine::RawVolume intensity = engine::labels::read_scalar_volume(volume_spec);
+  const engine::labels::LabelMap labels = engine::proxy::proxy_labels(intensity, materials, source);
+  engine::proxy::ProxyMeshOptions mesh_options;
+  mesh_options.coarse_spacing_mm = options.spacing_mm;
+  mesh_options.boundary_levels = options.boundary_levels;
+  return engine::proxy::build_proxy_mesh(labels, materials, mesh_options);
+}
+
+}  // namespace hapvox::cli

@@ -1,0 +1,38 @@
+#pragma once
+// The proxy-FEM model's flags, shared by `hapvox mesh` and `hapvox replay --model fem`:
+// the materials file, where the labels come from (a label volume, seeds, or the materials'
+// intensity ranges) and how the mesh is built. docs/materials.md.
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "engine/proxy/proxy_mesh.h"
+#include "tools/cli.h"
+
+namespace hapvox::cli {
+
+/// --materials, --labels, --seed, --seed-tolerance, --spacing-mm, --boundary-levels.
+struct FemCliOptions {
+  std::string materials;           // the materials TOML file; required to build a mesh
+  std::string labels;              // a label volume; "" for none
+  std::vector<std::string> seeds;  // "X,Y,Z[:LABEL]" in world mm; LABEL defaults to 1, 2, ...
+  double seed_tolerance = -1;      // < 0: 10 % of the intensity range (the flag takes >= 0)
+  double spacing_mm = 0;           // 0: the volume box's shortest side / 8
+  int boundary_levels = 2;
+};
+
+/// Registers the flags on `app`; `options` must outlive the parse. --materials is optional
+/// here (replay's voxel model needs none): mark it required where a command always meshes.
+void add_fem_options(CLI::App& app, FemCliOptions& options);
+
+/// The files the options read (materials, label volume), for check_outputs_spare_inputs.
+std::vector<InputPath> fem_inputs(const FemCliOptions& options);
+
+/// The proxy mesh of `volume_spec` (a volume file or generator, read unmapped): reads the
+/// materials, makes the labels and builds the mesh. Throws InputError naming the file or
+/// flag at fault ("--materials" when none was given).
+engine::proxy::ProxyMesh build_proxy_from_cli(const std::string& volume_spec,
+                                              const FemCliOptions& options);
+
+}  // namespace hapvox::cli
