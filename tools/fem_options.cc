@@ -39,8 +39,7 @@ void add_fem_options(CLI::App& app, FemCliOptions& options) {
   auto* seeds = app.add_option("--seed", options.seeds,
                                "X,Y,Z[:LABEL] (mm): grow LABEL's region from this point "
                                "(repeatable; labels default to 1, 2, ...)")
-                    ->expected(1)
-                    ->take_all();
+                    ->allow_extra_args(false);  // one value per --seed: VOLUME may follow
   labels->excludes(seeds);
   app.add_option("--seed-tolerance", options.seed_tolerance,
                  "Intensity difference a seed's region accepts (default: 10 % of the "

@@ -106,10 +106,10 @@ TEST(MeshCli, SeedsMakeTheLabels) {
   const testing::FourSpheres phantom{24, 1.0};
   const engine::Vec3d c = phantom.centre_mm(1);
   const std::string materials = write(dir + "/m.toml", materials_text({0, 5}));
-  const auto r =
-      run_hapvox(std::string("mesh ") + kPhantom + " --materials " + materials + " --seed " +
-                 std::to_string(c.x()) + "," + std::to_string(c.y()) + "," + std::to_string(c.z()) +
-                 ":5 --seed-tolerance 0.05 -o " + dir + "/out.h5");
+  // The volume after the seeds: each --seed takes one value.
+  const auto r = run_hapvox("mesh --materials " + materials + " --seed " + std::to_string(c.x()) +
+                            "," + std::to_string(c.y()) + "," + std::to_string(c.z()) +
+                            ":5 --seed-tolerance 0.05 " + kPhantom + " -o " + dir + "/out.h5");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::vector<double> labels =
       haptics::read_session_column(dir + "/out.h5", "/mesh/tet_label");
