@@ -120,10 +120,17 @@ void FemBackgroundStage::make_snapshot(const Vec3d& proxy_mm, const Eigen::Vecto
     std::sort(vertices.begin(), vertices.end());
   }
   const int n = static_cast<int>(vertices.size());
+  // Linear statics: K never changes, so neither does W of an unchanged vertex set.
+  const bool same_set = corotational_ == nullptr && steps_ > 0 && current_.count == n &&
+                        std::equal(vertices.begin(), vertices.end(), current_.vertices.begin());
   out.count = n;
-  out.w_mm_per_n.setZero();
+  if (same_set) {
+    out.w_mm_per_n = current_.w_mm_per_n;
+  } else {
+    out.w_mm_per_n.setZero();
+  }
   // W = H K^-1 H^T: one solve per contact DOF.
-  for (int j = 0; j < n; ++j) {
+  for (int j = 0; j < n && !same_set; ++j) {
     for (int b = 0; b < 3; ++b) {
       Eigen::VectorXd rhs = Eigen::VectorXd::Zero(partition.free_count());
       rhs(partition.free_index(3 * vertices[j] + b)) = 1.0;

@@ -20,7 +20,11 @@ namespace hapvox::cli {
 namespace {
 
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
+  if (f.model == "fem") return run_fem_replay(f, command_line);
+  if (f.model != "voxel")
+    throw InputError("--model", "unknown model '" + f.model + "' (voxel or fem)");
   // Check everything the user gave before reading big files or creating output.
+  if (!f.fem_mesh.materials.empty()) throw InputError("--materials", "needs --model fem");
   engine::validate_material(f.force.options.material, "--youngs-modulus-pa", "--poisson");
   const double diameter = f.force.options.tool.diameter_mm;
   if (!std::isfinite(diameter) || diameter <= 0.0) {
@@ -269,6 +273,29 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
       ->capture_default_str();
   flags->render.size = "256";  // frames beside a force loop: small by default
   flags->render.add_to(*cmd, "render-");
+  cmd->add_option("--model", flags->model,
+                  "Deformation model: voxel (Prados: elastic/plastic forces on the density "
+                  "field) or fem (Nakao: an adaptive tet proxy mesh with FEM; needs --materials)")
+      ->capture_default_str();
+  add_fem_options(*cmd, flags->fem_mesh);
+  cmd->add_option("--interaction", flags->fem_interaction,
+                  "fem: press (the tool sphere pushes) or grab (the vertices within the tool "
+                  "radius of the first position follow it)")
+      ->capture_default_str();
+  cmd->add_option("--fem-solver", flags->fem_solver, "fem: linear or corotational")
+      ->capture_default_str();
+  cmd->add_option("--coupling-n-per-mm", flags->fem.coupling_n_per_mm,
+                  "fem: virtual coupling stiffness, N/mm (the rendered stiffness never exceeds "
+                  "it; passive at 1 kHz for a device damping >= k T / 2)")
+      ->capture_default_str();
+  cmd->add_option("--candidate-margin-mm", flags->fem.candidate_margin_mm,
+                  "fem press: surface vertices this close to the tool join the contact snapshot")
+      ->capture_default_str();
+  cmd->add_option("--fem-every-ticks", flags->fem.fem_every_ticks,
+                  "fem, lockstep: one FEM step every N ticks")
+      ->capture_default_str();
+  cmd->add_option("--fem-rate-hz", flags->fem.fem_rate_hz, "fem, realtime: the FEM thread's rate")
+      ->capture_default_str();
   cmd->add_flag("--plastic", flags->plastic,
                 "Sculpt: incremental plasticity, deletion and progressive relaxation");
   cmd->add_option("--yield-stress-pa", flags->force.options.plastic.yield_stress_pa,

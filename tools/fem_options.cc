@@ -64,8 +64,9 @@ std::vector<InputPath> fem_inputs(const FemCliOptions& options) {
   return inputs;
 }
 
-engine::proxy::ProxyMesh build_proxy_from_cli(const std::string& volume_spec,
-                                              const FemCliOptions& options) {
+engine::proxy::ProxyMesh build_proxy_from_cli(
+    const std::string& volume_spec, const FemCliOptions& options,
+    const std::optional<engine::fem::Region>& tool_region) {
   if (options.materials.empty()) {
     throw InputError("--materials", "the proxy model needs a materials file");
   }
@@ -83,6 +84,7 @@ engine::proxy::ProxyMesh build_proxy_from_cli(const std::string& volume_spec,
   engine::proxy::ProxyMeshOptions mesh_options;
   mesh_options.coarse_spacing_mm = options.spacing_mm;
   mesh_options.boundary_levels = options.boundary_levels;
+  mesh_options.tool_region = tool_region;
   return engine::proxy::build_proxy_mesh(labels, materials, mesh_options);
 }
 

@@ -4,6 +4,7 @@
 // intensity ranges) and how the mesh is built. docs/materials.md.
 
 #include <CLI/CLI.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,7 +33,10 @@ std::vector<InputPath> fem_inputs(const FemCliOptions& options);
 /// The proxy mesh of `volume_spec` (a volume file or generator, read unmapped): reads the
 /// materials, makes the labels and builds the mesh. Throws InputError naming the file or
 /// flag at fault ("--materials" when none was given).
-engine::proxy::ProxyMesh build_proxy_from_cli(const std::string& volume_spec,
-                                              const FemCliOptions& options);
+/// `tool_region`, when given, is refined ProxyMeshOptions::tool_levels further (the region
+/// a replay's tool sweeps).
+engine::proxy::ProxyMesh build_proxy_from_cli(
+    const std::string& volume_spec, const FemCliOptions& options,
+    const std::optional<engine::fem::Region>& tool_region = std::nullopt);
 
 }  // namespace hapvox::cli

@@ -5,9 +5,11 @@
 
 #include <string>
 
+#include "haptics/fem_model.h"
 #include "haptics/realtime.h"
 #include "haptics/voxel_model.h"
 #include "tools/cli.h"
+#include "tools/fem_options.h"
 #include "tools/render_output.h"
 
 namespace hapvox::cli {
@@ -35,6 +37,12 @@ struct ReplayFlags {
   int cpu = -1;
   bool no_pin = false;
   double watchdog_periods = 1.0;
+  // The deformation model: "voxel" (Prados) or "fem" (Nakao's proxy mesh).
+  std::string model = "voxel";
+  FemCliOptions fem_mesh;  // --materials, --labels, --seed, ...
+  haptics::FemOptions fem;
+  std::string fem_interaction = "press";
+  std::string fem_solver = "linear";
   // Rendering (a render thread in realtime, a frame every N ticks in lockstep).
   std::string render_dir;
   double render_fps = 30.0;
@@ -48,6 +56,9 @@ struct ReplayResult {
   haptics::TimingSummary timing;
   haptics::SculptSummary sculpted;
 };
+
+/// `replay --model fem` (tools/replay_fem.cc).
+ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_line);
 
 /// The flags every model checks alike (limits, rates, scheduling); InputError naming the flag.
 void check_loop_flags(const ReplayFlags& f);

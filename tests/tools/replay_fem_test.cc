@@ -1,0 +1,138 @@
+// `hapvox replay --model fem` end to end: a grab of the white sphere's free side on the
+// four-spheres phantom writes a session with the mesh, the node displacements of every FEM
+// step and an XDMF file; the material pulls the tool back; the captured vertices move with
+// the proxy; two lockstep runs agree bit for bit; and bad input is one line, exit 2.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "engine/labels/four_spheres.h"
+#include "haptics/session.h"
+#include "test_data.h"
+
+namespace hapvox {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::run_hapvox;
+using testing::scratch_dir;
+using testing::source_path;
+
+const char* const kPhantom = "four-spheres:dims=32";
+
+// A pull of `travel_mm` along +x from the white sphere's right side (its left is fixed).
+std::string write_pull_trace(const std::string& dir, double travel_mm) {
+  const testing::FourSpheres phantom{32, 1.0};
+  const engine::Vec3d start = phantom.centre_mm(3) + engine::Vec3d(0.75 * phantom.radius(), 0, 0);
+  const std::string path = dir + "/pull.csv";
+  std::ofstream out(path);
+  out << "t,x,y,z\n";
+  for (int k = 0; k <= 300; ++k) {
+    const double s = std::min(1.0, k / 200.0);
+    out << k / 1000.0 << "," << start.x() + travel_mm * s << "," << start.y() << "," << start.z()
+        << "\n";
+  }
+  return path;
+}
+
+std::string fem_args(const std::string& trace, const std::string& out) {
+  return "replay " + trace + " --volume " + kPhantom + " --model fem --materials " +
+         source_path("data/four_spheres.toml") +
+         " --boundary-levels 1 --interaction grab --tool-diameter-mm 6 --ramp-in-s 0"
+         " --max-force-n 1000"
+         // A stiff coupling: the captured vertices follow the device (Fig. 5's displacement
+         // control) instead of the 1 N/mm a hand on a device would feel.
+         " --coupling-n-per-mm 1000 -q -o " +
+         out;
+}
+
+TEST(ReplayFemCli, AGrabWritesTheMeshTheDisplacementsAndAnXdmfAndIsBitReproducible) {
+  const std::string dir = scratch_dir();
+  const std::string trace = write_pull_trace(dir, 2.0);
+  const auto r = run_hapvox(fem_args(trace, dir + "/a.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("proxy FEM, linear grab"), std::string::npos) << r.out;
+  ASSERT_TRUE(fs::exists(dir + "/a.xdmf"));
+  const std::string a = dir + "/a.h5";
+  const std::vector<double> force = haptics::read_session_column(a, "force_n");
+  ASSERT_EQ(force.size(), 3u * 301);
+  // Pulled along +x, the material pulls back along -x, harder the further.
+  EXPECT_LT(force[3 * 200], 0.0);
+  EXPECT_LT(force[3 * 200], force[3 * 100]);
+  EXPECT_NEAR(force[0], 0.0, 1e-9);  // nothing displaced yet at the first tick
+  // One FEM step before tick 0 and one every 10 ticks: 1 + 30.
+  const std::vector<double> step_tick = haptics::read_session_column(a, "fem/step_tick");
+  EXPECT_EQ(step_tick.size(), 31u);
+  const std::vector<double> u = haptics::read_session_column(a, "fem/displacement_mm");
+  const std::vector<double> rest = haptics::read_session_column(a, "mesh/rest_mm");
+  const std::vector<double> classes = haptics::read_session_column(a, "fem/vertex_class");
+  const std::size_t vertices = rest.size() / 3;
+  ASSERT_EQ(u.size(), step_tick.size() * vertices * 3);
+  ASSERT_EQ(classes.size(), vertices);
+  // Fixed vertices never move; captured (constrained) ones move along +x at the last step.
+  const std::size_t last = (step_tick.size() - 1) * vertices * 3;
+  int captured = 0;
+  for (std::size_t v = 0; v < vertices; ++v) {
+    if (classes[v] == 2) {
+      for (int a = 0; a < 3; ++a) EXPECT_EQ(u[last + 3 * v + a], 0.0);
+    }
+    if (classes[v] == 1) {
+      ++captured;
+      EXPECT_GT(u[last + 3 * v], 0.5);
+    }
+  }
+  EXPECT_GT(captured, 0);
+  // The same run again: every physics dataset bit for bit.
+  ASSERT_EQ(run_hapvox(fem_args(trace, dir + "/b.h5")).exit_code, 0);
+  for (const char* dataset : {"force_n", "fem/displacement_mm", "displacement_mm"}) {
+    EXPECT_EQ(haptics::read_session_column(a, dataset),
+              haptics::read_session_column(dir + "/b.h5", dataset))
+        << dataset;
+  }
+  const auto info = run_hapvox("info " + a);
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("fem"), std::string::npos) << info.out;
+}
+
+void expect_replay_error(const std::string& dir, const std::string& args,
+                         const std::string& expected) {
+  const auto r = run_hapvox(args);
+  EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.out << r.err;
+  EXPECT_EQ(r.err, "hapvox: error: " + expected + "\n") << args;
+  EXPECT_FALSE(fs::exists(dir + "/bad.h5")) << args;
+  EXPECT_FALSE(fs::exists(dir + "/bad.h5.partial")) << args;
+}
+
+TEST(ReplayFemCli, BadInputIsOneLineAndExitTwo) {
+  const std::string dir = scratch_dir();
+  const std::string trace = write_pull_trace(dir, 1.0);
+  const std::string base =
+      "replay " + trace + " --volume " + kPhantom + " -q -o " + dir + "/bad.h5";
+  const std::string toml = source_path("data/four_spheres.toml");
+  expect_replay_error(dir, base + " --model fem", "--materials: --model fem needs one");
+  expect_replay_error(dir, base + " --model clay", "--model: unknown model 'clay' (voxel or fem)");
+  expect_replay_error(dir, base + " --materials " + toml, "--materials: needs --model fem");
+  expect_replay_error(dir, base + " --model fem --materials " + toml + " --plastic",
+                      "--plastic: needs --model voxel (the FEM model does not sculpt)");
+  expect_replay_error(dir, base + " --model fem --materials " + toml + " --interaction poke",
+                      "--interaction: unknown interaction 'poke' (press or grab)");
+  expect_replay_error(dir, base + " --model fem --materials " + toml + " --coupling-n-per-mm 0",
+                      "--coupling-n-per-mm: must be positive");
+  // A grab far outside the mesh: nothing to capture.
+  const std::string far = dir + "/far.csv";
+  std::ofstream(far) << "t,x,y,z\n0,100,100,100\n0.01,101,100,100\n";
+  const auto r =
+      run_hapvox("replay " + far + " --volume " + kPhantom + " --model fem --materials " + toml +
+                 " --boundary-levels 1 --interaction grab -q -o " + dir + "/bad.h5");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(
+      r.err.rfind("hapvox: error: grab: nothing to grab within 4 mm of (100, 100, 100) mm", 0), 0u)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir + "/bad.h5"));
+}
+
+}  // namespace
+}  // namespace hapvox

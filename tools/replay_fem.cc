@@ -1,0 +1,142 @@
+// hapvox replay TRACE --volume V --model fem --materials M.toml [--labels L | --seed X,Y,Z]
+// -o S.h5: the proxy-FEM model (haptics/fem_model.h) through the same loops, session and
+// report as the voxel model; the session also holds the mesh and the node displacements of
+// every FEM step, and S.xdmf beside it opens them in ParaView as a time series.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "engine/errors.h"
+#include "haptics/fem_model.h"
+#include "haptics/mesh_file.h"
+#include "tools/replay_command.h"
+
+namespace hapvox::cli {
+namespace {
+
+// The FEM's options from the flags (the tool radius from --tool-diameter-mm).
+haptics::FemOptions fem_options(const ReplayFlags& f) {
+  haptics::FemOptions o = f.fem;
+  o.interaction = haptics::parse_fem_interaction(f.fem_interaction, "--interaction");
+  o.solver = haptics::parse_fem_solver(f.fem_solver, "--fem-solver");
+  o.tool_radius_mm = 0.5 * f.force.options.tool.diameter_mm;
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(o.tool_radius_mm)) throw InputError("--tool-diameter-mm", "must be positive");
+  if (!positive(o.coupling_n_per_mm)) throw InputError("--coupling-n-per-mm", "must be positive");
+  if (!std::isfinite(o.candidate_margin_mm) || o.candidate_margin_mm < 0.0) {
+    throw InputError("--candidate-margin-mm", "must be zero or positive");
+  }
+  if (o.fem_every_ticks == 0) throw InputError("--fem-every-ticks", "must be at least 1");
+  if (!positive(o.fem_rate_hz) || o.fem_rate_hz > 1000.0) {
+    throw InputError("--fem-rate-hz", "must lie in (0, 1000]");
+  }
+  return o;
+}
+
+// The box the tool's centre sweeps, grown by its radius: where the mesh is refined.
+Eigen::AlignedBox3d tool_region(const haptics::TraceDevice& device, double radius_mm) {
+  Eigen::AlignedBox3d box;
+  for (std::size_t k = 0; k < device.tick_count(); ++k) box.extend(device.tool_position_mm(k));
+  box.min().array() -= radius_mm;
+  box.max().array() += radius_mm;
+  return box;
+}
+
+}  // namespace
+
+ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_line) {
+  // Check everything the user gave before reading big files or creating output.
+  if (f.plastic)
+    throw InputError("--plastic", "needs --model voxel (the FEM model does not sculpt)");
+  if (!f.sculpt_out.empty()) throw InputError("--sculpt-out", "needs --model voxel");
+  if (!f.render_dir.empty()) {
+    throw InputError("--render-dir", "the proxy-FEM model does not render yet (--model voxel)");
+  }
+  if (f.fem_mesh.materials.empty()) throw InputError("--materials", "--model fem needs one");
+  const haptics::FemOptions options = fem_options(f);
+  const haptics::TraceColumns columns = f.trace.columns();
+  const engine::IntensityMapping mapping = f.mapping.resolve();
+  check_loop_flags(f);
+  check_output_path(f.output, "--output");
+  const std::string xdmf = haptics::xdmf_path_for(f.output);
+  std::vector<InputPath> inputs = volume_inputs(f.volume);
+  inputs.push_back({f.trace_path, "trace"});
+  for (const InputPath& input : fem_inputs(f.fem_mesh)) inputs.push_back(input);
+  check_outputs_spare_inputs({{f.output, "--output", ""}, {xdmf, "--output", ""}}, inputs);
+
+  const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
+  const engine::DensityField field = engine::load_volume(f.volume, mapping);
+  const haptics::DeviceTransform transform = f.transform.resolve(trace, field);
+  haptics::ResampleOptions resample_options;
+  resample_options.rate_hz = f.trace.rate_hz;
+  resample_options.max_gap_s = f.trace.max_gap_s;
+  const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
+  if (device.tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
+  const haptics::FemModel model(
+      build_proxy_from_cli(f.volume, f.fem_mesh, tool_region(device, options.tool_radius_mm)),
+      options);
+  // The stages (haptics/fem_model.h); the loops see only their seams.
+  auto handoff = std::make_unique<haptics::FemHandoff>();
+  haptics::FemForceStage force(model, *handoff);
+  haptics::FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
+
+  haptics::SessionWriter session(f.output);
+  write_run_attributes(session, f, command_line, columns, mapping, field, device);
+  haptics::TimingSummary timing;
+  haptics::ReplaySummary s;
+  try {
+    const haptics::ProgressFn progress = progress_bar(f, device);
+    if (f.realtime) {
+      s = haptics::replay_realtime(force, &fem, device, f.limits, &session, progress, nullptr,
+                                   &timing, realtime_options(f));
+    } else {
+      s = haptics::replay_lockstep(force, &fem, device, f.limits, &session, progress);
+    }
+    force.write_attributes(session);
+    write_summary_attributes(session, f, s, timing);
+    if (f.realtime) {
+      session.write_array("timing/fem_step_ns", timing.relax_slice_ns, "ns");
+      session.write_array("timing/fem_step_start_ns", timing.relax_slice_start_ns, "ns");
+      session.set_attribute("summary_fem_step_p50_us", timing.relax_slice.p50_us);
+      session.set_attribute("summary_fem_step_p99_us", timing.relax_slice.p99_us);
+    }
+    fem.write_session(session, device.time_s(0), device.rate_hz());
+    haptics::write_proxy_mesh(session.file_handle(), model.proxy());
+  } catch (...) {
+    session.abandon();
+    throw;
+  }
+  session.close();
+  std::vector<double> times_s;
+  for (const haptics::FemFrame& frame : fem.frames()) {
+    times_s.push_back(device.time_s(static_cast<std::size_t>(frame.tick)));
+  }
+  haptics::write_xdmf_time_series(xdmf, std::filesystem::path(f.output).filename().string(),
+                                  model.mesh().vertex_count(), model.mesh().tet_count(), times_s,
+                                  "/fem/displacement_mm");
+
+  std::printf("replayed %s on %s (proxy FEM, %s %s) -> %s\n", f.trace_path.c_str(),
+              f.volume.c_str(), haptics::fem_solver_name(options.solver),
+              haptics::fem_interaction_name(options.interaction), f.output.c_str());
+  print_run_report(f, s, timing, device,
+                   "(contact solve on the FEM's snapshot, " +
+                       std::to_string(force.unconverged_solves()) + " unconverged)");
+  const engine::fem::ConformingMeshReport& mesh = model.proxy().report;
+  std::printf("  mesh             %d vertices, %d tets, dihedral %.1f..%.1f deg, %zu fixed DOFs\n",
+              mesh.vertex_count, mesh.tet_count, mesh.quality.min_dihedral_deg,
+              mesh.quality.max_dihedral_deg, model.fixed_dofs().size());
+  std::printf("  fem              %llu steps (%s), %zu vertices grabbed\n",
+              static_cast<unsigned long long>(fem.steps()),
+              f.realtime ? (std::to_string(options.fem_rate_hz) + " Hz thread").c_str()
+                         : ("every " + std::to_string(options.fem_every_ticks) + " ticks").c_str(),
+              fem.captured_vertices().size());
+  if (f.realtime) print_stats_line("fem steps", timing.relax_slice);
+  std::printf("  paraview         %s (node displacements over time)\n", xdmf.c_str());
+  print_run_footer(s);
+  return ReplayResult{s, timing, haptics::SculptSummary{}};
+}
+
+}  // namespace hapvox::cli
