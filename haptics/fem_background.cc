@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <thread>
 
 #include "engine/check.h"
@@ -71,12 +72,13 @@ Eigen::VectorXd FemBackgroundStage::solve_free(const Eigen::VectorXd& rhs) const
 }
 
 Eigen::VectorXd FemBackgroundStage::contact_loads(const ContactSnapshot& snapshot,
-                                                  const Vec3d& device_mm, Vec3d& proxy_mm) {
+                                                  const Vec3d& device_mm,
+                                                  const Vec3d& proxy_hint_mm, Vec3d& proxy_mm) {
   const FemOptions& o = model_.options();
   Eigen::VectorXd loads = Eigen::VectorXd::Zero(3 * model_.mesh().vertex_count());
   if (o.interaction == FemInteraction::kPress) {
-    const ContactSolve solve =
-        solve_press(snapshot, device_mm, o.tool_radius_mm, o.coupling_n_per_mm, scratch_);
+    const ContactSolve solve = solve_press(snapshot, device_mm, proxy_hint_mm, o.tool_radius_mm,
+                                           o.coupling_n_per_mm, scratch_);
     proxy_mm = solve.proxy_mm;
     for (int i = 0; i < snapshot.count; ++i) {
       loads.segment<3>(3 * snapshot.vertices[i]) += solve.lambda_n[i] * solve.normal[i];
@@ -172,9 +174,15 @@ void FemBackgroundStage::make_snapshot(const Vec3d& proxy_mm, const Eigen::Vecto
     }
     if (steps_ == 0) out.anchor_mm = proxy_mm;
     out.grab_offset_mm = proxy_mm - out.anchor_mm;
-    grab_vertex_forces_n_ = f;
+    // Co-rotational: the loads corrected by what still separates the captured vertices from
+    // the offset after the step, so the grab stays displacement-controlled as rotations change.
+    Eigen::VectorXd gap_mm(3 * n);
+    for (int i = 0; i < n; ++i) {
+      gap_mm.segment<3>(3 * i) = out.grab_offset_mm - vertex_of(displacement_mm_, vertices[i]);
+    }
+    grab_vertex_forces_n_ = f + grab_w_inverse_ * gap_mm;
     out.grab_force_n.setZero();
-    for (int i = 0; i < n; ++i) out.grab_force_n += f.segment<3>(3 * i);
+    for (int i = 0; i < n; ++i) out.grab_force_n += grab_vertex_forces_n_.segment<3>(3 * i);
     if (corotational_ == nullptr) {
       // Linear: the forces that hold every captured vertex at the offset, exactly.
       Eigen::VectorXd shift(3 * n);
@@ -185,11 +193,12 @@ void FemBackgroundStage::make_snapshot(const Vec3d& proxy_mm, const Eigen::Vecto
   }
 }
 
-void FemBackgroundStage::fem_step(const Vec3d& device_mm, std::int64_t tick) {
+void FemBackgroundStage::fem_step(const Vec3d& device_mm, const Vec3d& tick_proxy_mm,
+                                  std::int64_t tick) {
   const int dofs = 3 * model_.mesh().vertex_count();
   Vec3d proxy_mm = device_mm;
   Eigen::VectorXd loads = Eigen::VectorXd::Zero(dofs);
-  if (steps_ > 0) loads = contact_loads(current_, device_mm, proxy_mm);
+  if (steps_ > 0) loads = contact_loads(current_, device_mm, tick_proxy_mm, proxy_mm);
   const Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(dofs);
   if (corotational_ != nullptr) {
     displacement_mm_ = corotational_->step_mm(displacement_mm_, loads, prescribed);
@@ -211,13 +220,14 @@ void FemBackgroundStage::begin() {
   frames_.clear();
   steps_ = 0;
   current_ = ContactSnapshot{};
-  fem_step(initial_device_mm_, 0);
+  fem_step(initial_device_mm_, initial_device_mm_, 0);
 }
 
 void FemBackgroundStage::run_lockstep_tick(std::size_t tick, TickRecord& row,
                                            const LockstepRender*) {
   if ((tick + 1) % model_.options().fem_every_ticks == 0) {
-    fem_step(row.tool_position_mm, static_cast<std::int64_t>(tick));
+    fem_step(row.tool_position_mm, row.tool_position_mm + row.displacement_mm,
+             static_cast<std::int64_t>(tick));
   }
 }
 
@@ -230,9 +240,14 @@ void FemBackgroundStage::run_realtime(const std::atomic<bool>& force_done, Clock
   std::int64_t last_tick = -1;
   while (!force_done.load(std::memory_order_acquire)) {
     const RenderToolState device = handoff_.device.read();
-    if (device.tick >= 0 && device.tick != last_tick) {
+    if (device.tick >= 0 && device.tick != last_tick && failure_ == nullptr) {
       const auto begin = Clock::now();
-      fem_step(device.center_mm, device.tick);
+      try {
+        fem_step(device.center_mm, device.center_mm + device.displacement_mm, device.tick);
+      } catch (...) {
+        // The force thread keeps the last snapshot; finish() reports the failure.
+        failure_ = std::current_exception();
+      }
       last_tick = device.tick;
       timing.slice_start_ns.push_back(
           std::chrono::duration_cast<std::chrono::nanoseconds>(begin - start).count());
@@ -252,6 +267,7 @@ void FemBackgroundStage::run_realtime(const std::atomic<bool>& force_done, Clock
 
 SculptSummary FemBackgroundStage::finish(const LockstepRender*, RenderFeed*,
                                          const std::atomic<bool>*) {
+  if (failure_ != nullptr) std::rethrow_exception(failure_);
   SculptSummary summary;
   summary.settled = true;
   return summary;

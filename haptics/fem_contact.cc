@@ -36,8 +36,9 @@ bool solve_active(const PressScratch& s, int n, PressScratch::Column& lambda) {
 
 }  // namespace
 
-ContactSolve solve_press(const ContactSnapshot& snapshot, const Vec3d& device_mm, double radius_mm,
-                         double coupling_n_per_mm, PressScratch& s) noexcept {
+ContactSolve solve_press(const ContactSnapshot& snapshot, const Vec3d& device_mm,
+                         const Vec3d& proxy_hint_mm, double radius_mm, double coupling_n_per_mm,
+                         PressScratch& s) noexcept {
   ContactSolve out;
   out.proxy_mm = device_mm;
   const int n = snapshot.count;
@@ -48,10 +49,10 @@ ContactSolve solve_press(const ContactSnapshot& snapshot, const Vec3d& device_mm
   // Normals and gaps; a vertex without a normal gets a gap that keeps it out of contact.
   double scale = 0.0;
   for (int i = 0; i < n; ++i) {
-    const Vec3d r = snapshot.base_mm[i] - device_mm;
+    const Vec3d r = snapshot.base_mm[i] - proxy_hint_mm;
     const double distance = r.norm();
     out.normal[i] = distance > 0.0 ? Vec3d(r / distance) : Vec3d::Zero();
-    s.q(i) = distance > 0.0 ? distance - radius_mm : 1.0;
+    s.q(i) = distance > 0.0 ? out.normal[i].dot(snapshot.base_mm[i] - device_mm) - radius_mm : 1.0;
     if (distance == 0.0) s.active[i] = false;
     scale = std::max(scale, std::abs(s.q(i)));
   }
@@ -87,6 +88,7 @@ ContactSolve solve_press(const ContactSnapshot& snapshot, const Vec3d& device_mm
   }
   out.converged = converged;
   if (!converged) {
+    out.proxy_mm = proxy_hint_mm;
     s.active.fill(false);
     return out;  // no force rather than a wrong one; the caller counts it
   }

@@ -9,12 +9,13 @@
 // (base_mm). Exact for linear statics, a linearisation about the current state for the
 // co-rotational mode. The force thread then needs no K:
 //
-//   press  the tool is a sphere of radius r; vertex i touches it along n_i (from the device
-//          position to the vertex's base position). Its contact force lambda_i n_i >= 0 (no
-//          adhesion), frictionless. With a virtual coupling of stiffness k_c between the
-//          device position p_d and the tool proxy p, the proxy's equilibrium gives
-//          p = p_d - sum_j lambda_j n_j / k_c, and the gaps form the linear complementarity
-//          problem  w = q + M lambda >= 0, lambda >= 0, w . lambda = 0  with
+//   press  the tool is a sphere of radius r; vertex i touches it along n_i, from the tool
+//          proxy's last position to the vertex's base position (the sphere's centre is the
+//          proxy, not the device, which the coupling lets sink deeper). Its contact force lambda_i
+//          n_i >= 0 (no adhesion), frictionless. With a virtual coupling of stiffness k_c between
+//          the device position p_d and the tool proxy p, the proxy's equilibrium gives p = p_d -
+//          sum_j lambda_j n_j / k_c, and the gaps form the linear complementarity problem  w = q +
+//          M lambda >= 0, lambda >= 0, w . lambda = 0  with
 //            q_i  = n_i . (base_i - p_d) - r        (negative: the device penetrates)
 //            M_ij = n_i . W_ij n_j + n_i . n_j / k_c (symmetric positive definite),
 //          solved exactly by principal pivoting (Murty's least-index rule). The device
@@ -78,10 +79,12 @@ struct PressScratch {
 };
 
 /// The press solve at device position `device_mm` with a tool sphere of `radius_mm` and a
-/// coupling of `coupling_n_per_mm` (> 0). A vertex whose base position coincides with the
-/// device position has no normal and is left out.
-ContactSolve solve_press(const ContactSnapshot& snapshot, const Vec3d& device_mm, double radius_mm,
-                         double coupling_n_per_mm, PressScratch& scratch) noexcept;
+/// coupling of `coupling_n_per_mm` (> 0); the normals point from `proxy_hint_mm` (the proxy
+/// of the last tick; the device position on the first) to the base positions. A vertex
+/// whose base position coincides with the hint has no normal and is left out.
+ContactSolve solve_press(const ContactSnapshot& snapshot, const Vec3d& device_mm,
+                         const Vec3d& proxy_hint_mm, double radius_mm, double coupling_n_per_mm,
+                         PressScratch& scratch) noexcept;
 
 /// The grab solve at device position `device_mm` (no force without a capture).
 ContactSolve solve_grab(const ContactSnapshot& snapshot, const Vec3d& device_mm,

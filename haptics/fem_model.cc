@@ -41,7 +41,9 @@ void validate(const FemOptions& o) {
     throw InputError(source, "the candidate margin must be >= 0 mm");
   }
   if (o.fem_every_ticks == 0) throw InputError(source, "the FEM must run every >= 1 ticks");
-  if (!positive(o.fem_rate_hz)) throw InputError(source, "the FEM rate must be > 0 Hz");
+  if (!(o.fem_rate_hz >= 1.0 && o.fem_rate_hz <= 1000.0)) {
+    throw InputError(source, "the FEM rate must lie in [1, 1000] Hz");
+  }
 }
 
 FemModel::FemModel(engine::proxy::ProxyMesh proxy, const FemOptions& options)
@@ -72,17 +74,26 @@ FemForceStage::FemForceStage(const FemModel& model, FemHandoff& handoff)
 Vec3d FemForceStage::step(const Vec3d& tool_center_mm, TickRecord& row) noexcept {
   const ContactSnapshot& snapshot = handoff_.snapshots.read();
   const FemOptions& o = model_.options();
-  last_ =
-      o.interaction == FemInteraction::kPress
-          ? solve_press(snapshot, tool_center_mm, o.tool_radius_mm, o.coupling_n_per_mm, scratch_)
-          : solve_grab(snapshot, tool_center_mm, o.coupling_n_per_mm);
-  if (!last_.converged) ++unconverged_;
+  // The press normals point from the proxy (the sphere's centre), taken from the last tick.
+  const Vec3d proxy_hint_mm = has_proxy_ ? last_.proxy_mm : tool_center_mm;
+  last_ = o.interaction == FemInteraction::kPress
+              ? solve_press(snapshot, tool_center_mm, proxy_hint_mm, o.tool_radius_mm,
+                            o.coupling_n_per_mm, scratch_)
+              : solve_grab(snapshot, tool_center_mm, o.coupling_n_per_mm);
+  has_proxy_ = true;
+  if (!last_.converged) {
+    // Never a step from a fault: hold the last good force (and its proxy).
+    ++unconverged_;
+    last_.force_n = last_good_force_n_;
+    last_.proxy_mm = tool_center_mm + last_good_force_n_ / o.coupling_n_per_mm;
+  }
   Vec3d force_n = last_.force_n;
   if (!force_n.allFinite()) {
     ++nonfinite_;
     force_n.setZero();
     last_.proxy_mm = tool_center_mm;
   }
+  last_good_force_n_ = force_n;
   const bool contact = last_.active > 0;
   if (contact && !in_contact_) ++contact_onsets_;
   in_contact_ = contact;

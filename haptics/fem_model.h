@@ -19,6 +19,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <exception>
 #include <memory>
 #include <optional>
 #include <string>
@@ -138,7 +139,7 @@ class FemForceStage final : public ForceStage {
   /// model = "fem", interaction, solver, radius, coupling, rates, mesh counts.
   void write_attributes(SessionWriter& session) const override;
 
-  /// Ticks whose press solve did not finish (sent without force).
+  /// Ticks whose press solve did not finish (sent the last converged force instead).
   std::uint64_t unconverged_solves() const { return unconverged_; }
   /// The last tick's solve (tests).
   const ContactSolve& last_solve() const { return last_; }
@@ -148,6 +149,8 @@ class FemForceStage final : public ForceStage {
   FemHandoff& handoff_;
   PressScratch scratch_;
   ContactSolve last_;
+  bool has_proxy_ = false;                   // last_.proxy_mm holds a tick's proxy
+  Vec3d last_good_force_n_ = Vec3d::Zero();  // held through an unconverged press solve
   std::int64_t tick_ = 0;
   bool in_contact_ = false;
   std::uint64_t contact_onsets_ = 0;
@@ -194,11 +197,13 @@ class FemBackgroundStage final : public BackgroundStage {
   void write_session(SessionWriter& session, double t0_s, double rate_hz) const;
 
  private:
-  // One FEM step for the device at `device_mm`, the step's frame recorded for `tick`.
-  void fem_step(const Vec3d& device_mm, std::int64_t tick);
-  // The contact forces (N, all DOFs) the snapshot gives at `device_mm`, and the proxy.
+  // One FEM step for the device at `device_mm` whose tick left the proxy at `proxy_mm`
+  // (the press normals' centre), the step's frame recorded for `tick`.
+  void fem_step(const Vec3d& device_mm, const Vec3d& proxy_mm, std::int64_t tick);
+  // The contact forces (N, all DOFs) the snapshot gives at `device_mm` (normals from
+  // `proxy_hint_mm`), and the proxy.
   Eigen::VectorXd contact_loads(const ContactSnapshot& snapshot, const Vec3d& device_mm,
-                                Vec3d& proxy_mm);
+                                const Vec3d& proxy_hint_mm, Vec3d& proxy_mm);
   // K_FF^-1 (or the warped one) of a free-DOF vector.
   Eigen::VectorXd solve_free(const Eigen::VectorXd& rhs) const;
   // The next snapshot for the proxy at `proxy_mm` with loads `loads_n`.
@@ -217,6 +222,7 @@ class FemBackgroundStage final : public BackgroundStage {
   Eigen::VectorXd grab_vertex_forces_n_;
   std::vector<FemFrame> frames_;
   std::uint64_t steps_ = 0;
+  std::exception_ptr failure_;  // realtime: what stopped the FEM thread's steps
 };
 
 }  // namespace hapvox::haptics

@@ -30,8 +30,8 @@ haptics::FemOptions fem_options(const ReplayFlags& f) {
     throw InputError("--candidate-margin-mm", "must be zero or positive");
   }
   if (o.fem_every_ticks == 0) throw InputError("--fem-every-ticks", "must be at least 1");
-  if (!positive(o.fem_rate_hz) || o.fem_rate_hz > 1000.0) {
-    throw InputError("--fem-rate-hz", "must lie in (0, 1000]");
+  if (!(o.fem_rate_hz >= 1.0 && o.fem_rate_hz <= 1000.0)) {
+    throw InputError("--fem-rate-hz", "must lie in [1, 1000]");
   }
   return o;
 }

@@ -63,6 +63,7 @@ struct FemRun {
   std::vector<std::uint8_t> contact;
   std::vector<FemFrame> frames;
   std::vector<std::int32_t> captured;
+  std::uint64_t unconverged = 0;  // press solves the force stage could not finish
 };
 
 // A lockstep run of `device` through the FEM stages, recording every row.
@@ -83,6 +84,7 @@ FemRun run_lockstep(const FemModel& model, const TraceDevice& device) {
   }
   run.frames = fem2.frames();
   run.captured = fem2.captured_vertices();
+  run.unconverged = force2.unconverged_solves();
   return run;
 }
 
@@ -181,6 +183,50 @@ TEST(FemPress, ForceIsContinuousPushesOutAndDoesNotDependOnTheFemRate) {
   EXPECT_EQ(fast.contact.back(), 1);
   // Deeper is harder.
   EXPECT_GT(fast.force_n.back().z(), fast.force_n[1000].z());
+}
+
+TEST(FemContact, OneVertexPressIsTwoSpringsInSeries) {
+  // A vertex at the origin with compliance c = 0.5 mm/N, a sphere of r = 2 mm whose centre
+  // the device puts delta = 0.3 mm too close above it, a coupling of k_c = 2 N/mm: the
+  // vertex and the coupling are springs in series, lambda = delta / (c + 1 / k_c) = 0.3 N,
+  // and at the proxy the vertex sits exactly on the sphere.
+  auto snapshot = std::make_unique<ContactSnapshot>();
+  snapshot->count = 2;
+  snapshot->vertices = {0, 1};
+  snapshot->base_mm[0] = Vec3d::Zero();
+  snapshot->base_mm[1] = Vec3d(10, 0, 0);  // out of reach
+  snapshot->w_mm_per_n.topLeftCorner(6, 6).setIdentity();
+  snapshot->w_mm_per_n.topLeftCorner(6, 6) *= 0.5;
+  const double radius = 2.0, delta = 0.3, coupling = 2.0;
+  const Vec3d device(0, 0, radius - delta);
+  PressScratch scratch;
+  const ContactSolve solve = solve_press(*snapshot, device, device, radius, coupling, scratch);
+  ASSERT_TRUE(solve.converged);
+  EXPECT_EQ(solve.active, 1);
+  EXPECT_NEAR(solve.lambda_n[0], delta / (0.5 + 1.0 / coupling), 1e-14);
+  EXPECT_EQ(solve.lambda_n[1], 0.0);
+  EXPECT_NEAR(solve.force_n.z(), 0.3, 1e-14);  // up, out of the material
+  EXPECT_NEAR(solve.force_n.x(), 0.0, 1e-14);
+  const Vec3d vertex = snapshot->base_mm[0] + 0.5 * solve.lambda_n[0] * solve.normal[0];
+  EXPECT_NEAR((vertex - solve.proxy_mm).norm(), radius, 1e-14);
+}
+
+// The device 9.5 mm below the surface: the soft coupling lets it sink more than twice the
+// tool radius (4 mm) while the proxy stays near the surface (about 3 mm in at the end).
+TEST(FemPress, ADeepPressStillPushesOutAndHarderTheDeeper) {
+  FemOptions o = options(FemInteraction::kPress, 10);
+  o.coupling_n_per_mm = 0.2;
+  const FemModel model(block(), o);
+  const TraceDevice device = device_along(1200, [](std::size_t k) {
+    const double depth_mm = -0.5 + 10.0 * static_cast<double>(k) / 1199.0;
+    return Vec3d(6.0, 6.0, kBlockTopMm + 4.0 - depth_mm);
+  });
+  const FemRun run = run_lockstep(model, device);
+  for (std::size_t k = 0; k < run.force_n.size(); ++k) {
+    ASSERT_GE(run.force_n[k].z(), 0.0) << "tick " << k;
+  }
+  EXPECT_GT(run.force_n.back().z(), run.force_n[800].z());
+  EXPECT_GT(run.force_n[800].z(), run.force_n[400].z());
 }
 
 TEST(FemPress, TwoLockstepRunsAreBitIdentical) {
