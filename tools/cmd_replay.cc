@@ -25,6 +25,9 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     throw InputError("--model", "unknown model '" + f.model + "' (voxel or fem)");
   // Check everything the user gave before reading big files or creating output.
   if (!f.fem_mesh.materials.empty()) throw InputError("--materials", "needs --model fem");
+  for (const CLI::Option* option : f.fem_only_options) {
+    if (option->count() > 0) throw InputError(option->get_name(), "needs --model fem");
+  }
   engine::validate_material(f.force.options.material, "--youngs-modulus-pa", "--poisson");
   const double diameter = f.force.options.tool.diameter_mm;
   if (!std::isfinite(diameter) || diameter <= 0.0) {
@@ -296,6 +299,12 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
       ->capture_default_str();
   cmd->add_option("--fem-rate-hz", flags->fem.fem_rate_hz, "fem, realtime: the FEM thread's rate")
       ->capture_default_str();
+  for (const char* name :
+       {"--labels", "--seed", "--seed-tolerance", "--spacing-mm", "--boundary-levels",
+        "--interaction", "--fem-solver", "--coupling-n-per-mm", "--candidate-margin-mm",
+        "--fem-every-ticks", "--fem-rate-hz"}) {
+    flags->fem_only_options.push_back(cmd->get_option(name));
+  }
   cmd->add_flag("--plastic", flags->plastic,
                 "Sculpt: incremental plasticity, deletion and progressive relaxation");
   cmd->add_option("--yield-stress-pa", flags->force.options.plastic.yield_stress_pa,

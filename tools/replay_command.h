@@ -4,6 +4,7 @@
 // result, the session attributes every run writes and the lines every run prints.
 
 #include <string>
+#include <vector>
 
 #include "haptics/fem_model.h"
 #include "haptics/realtime.h"
@@ -43,6 +44,9 @@ struct ReplayFlags {
   haptics::FemOptions fem;
   std::string fem_interaction = "press";
   std::string fem_solver = "linear";
+  // The options only --model fem reads (owned by the command's CLI::App): refused with
+  // --model voxel when given, rather than silently ignored.
+  std::vector<const CLI::Option*> fem_only_options;
   // Rendering (a render thread in realtime, a frame every N ticks in lockstep).
   std::string render_dir;
   double render_fps = 30.0;

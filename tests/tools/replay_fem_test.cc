@@ -115,6 +115,11 @@ TEST(ReplayFemCli, BadInputIsOneLineAndExitTwo) {
   expect_replay_error(dir, base + " --model fem", "--materials: --model fem needs one");
   expect_replay_error(dir, base + " --model clay", "--model: unknown model 'clay' (voxel or fem)");
   expect_replay_error(dir, base + " --materials " + toml, "--materials: needs --model fem");
+  // The FEM's own flags are refused with the voxel model, not silently ignored.
+  expect_replay_error(dir, base + " --interaction grab", "--interaction: needs --model fem");
+  expect_replay_error(dir, base + " --model voxel --boundary-levels 1",
+                      "--boundary-levels: needs --model fem");
+  expect_replay_error(dir, base + " --fem-rate-hz 50", "--fem-rate-hz: needs --model fem");
   expect_replay_error(dir, base + " --model fem --materials " + toml + " --plastic",
                       "--plastic: needs --model voxel (the FEM model does not sculpt)");
   expect_replay_error(dir, base + " --model fem --materials " + toml + " --interaction poke",
