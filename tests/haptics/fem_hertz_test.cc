@@ -1,11 +1,11 @@
 // Hertz through the proxy-FEM press (issue 9): a rigid sphere pressed into an elastic block
 // through FemForceStage, the force against the proxy's indentation d compared with
 // F = 4/3 E* sqrt(R) d^1.5, E* = E / (1 - nu^2). The block is finite (its bottom fixed) and
-// meshed with linear tets, both of which stiffen it. The snapshot holds at most 32 vertices,
-// so the contact patch (radius a = sqrt(R d)) spans only about 2.5 edges of the 1 mm mesh at
-// the deepest point: measured 1.147-1.211 over d = 0.2-0.76 mm, slope 1.52. The issue asks
-// for 1.00-1.15, which needs a finer patch than 32 vertices give (still open); this test holds
-// the law's exponent (1.5 +- 0.1) and its magnitude to 25 %, never below Hertz.
+// meshed with linear tets, both of which stiffen it. A block 60 x 60 x 40 mm (4 mm lattice,
+// 1 mm under the tool) keeps the patch radius a = sqrt(R d) <= 2.8 mm below 7 % of the depth,
+// where a layer bonded to a rigid base stiffens by ~ 1.1 a/h (Dimitriadis et al. 2002); on
+// 40 x 40 x 20 mm it measured 1.147-1.211. Measured here: F/F_Hertz 1.091-1.141 over
+// d = 0.2-0.77 mm, log-log slope 1.496, 25 vertices in contact at the deepest point.
 
 #include <gtest/gtest.h>
 
@@ -25,8 +25,8 @@ using engine::fem::VertexClass;
 constexpr double kYoungsPa = 1e6;
 constexpr double kPoisson = 0.3;
 constexpr double kRadiusMm = 10.0;
-constexpr double kSideMm = 40.0;
-constexpr double kDepthMm = 20.0;
+constexpr double kSideMm = 60.0;
+constexpr double kDepthMm = 40.0;
 
 engine::proxy::ProxyMesh hertz_block(double coarse_mm, int tool_levels) {
   engine::fem::ConformingMeshOptions options;
@@ -57,7 +57,7 @@ TEST(FemHertz, PressForceFollowsHertzWithinTheMeshStiffening) {
   o.tool_radius_mm = kRadiusMm;
   o.coupling_n_per_mm = 100.0;
   o.candidate_margin_mm = 0.3;
-  o.fem_every_ticks = 1;
+  o.fem_every_ticks = 10;
   const FemModel model(hertz_block(4.0, 2), o);
   const double c = 0.5 * kSideMm;
   // The device from touching to 0.8 mm deep.
@@ -107,7 +107,7 @@ TEST(FemHertz, PressForceFollowsHertzWithinTheMeshStiffening) {
       model.mesh().vertex_count(), model.mesh().tet_count(), lo, hi, depth.front(), depth.back(),
       slope, force.last_solve().active);
   EXPECT_GE(lo, 1.0);
-  EXPECT_LE(hi, 1.25);
+  EXPECT_LE(hi, 1.15);
   EXPECT_NEAR(slope, 1.5, 0.1);
 }
 

@@ -152,6 +152,47 @@ TEST(FemGrab, ForceEqualsAFullSolveWithTheCapturedVerticesHeldAtAnyFemRate) {
   EXPECT_LT(fast.force_n.back().x(), 0.0);
 }
 
+// From the top centre, `travel_mm` along +x over 200 ticks, then held for 200.
+TraceDevice sideways_grab_path(double travel_mm) {
+  const Vec3d start(6.0, 6.0, kBlockTopMm);
+  return device_along(400, [start, travel_mm](std::size_t k) {
+    return Vec3d(start + Vec3d(travel_mm * std::min(1.0, static_cast<double>(k) / 200.0), 0, 0));
+  });
+}
+
+TEST(FemCorotational, ASmallGrabFeelsLikeLinearAndALargeOneStaysDisplacementControlled) {
+  FemOptions linear = options(FemInteraction::kGrab, 10);
+  FemOptions corotational = linear;
+  corotational.solver = FemSolver::kCorotational;
+  // 0.02 mm: rotations of order 1e-3, so the warped stiffness is the linear one to about
+  // that; a stage that used W or the loads wrongly in this mode would differ at O(1).
+  const TraceDevice small = sideways_grab_path(0.02);
+  const FemRun lin = run_lockstep(FemModel(block(), linear), small);
+  const FemRun cor = run_lockstep(FemModel(block(), corotational), small);
+  ASSERT_EQ(cor.captured, lin.captured);
+  ASSERT_GT(lin.force_n.back().norm(), 1e-4);
+  EXPECT_LE((cor.force_n.back() - lin.force_n.back()).norm(), 0.01 * lin.force_n.back().norm())
+      << cor.force_n.back().transpose() << " vs " << lin.force_n.back().transpose();
+  // 3 mm through a stiff coupling: the captured vertices end where the proxy is (the
+  // co-rotational loads are corrected by their remaining offset each FEM step), the
+  // material pulls back along -x, and the held vertices never move.
+  corotational.coupling_n_per_mm = 1000.0;
+  const FemModel model(block(), corotational);
+  const TraceDevice large = sideways_grab_path(3.0);
+  const FemRun run = run_lockstep(model, large);
+  const Vec3d proxy = large.tool_position_mm(399) + run.force_n.back() / 1000.0;
+  const Vec3d offset = proxy - large.tool_position_mm(0);
+  EXPECT_GT(offset.x(), 2.9);
+  EXPECT_LT(run.force_n.back().x(), 0.0);
+  for (const std::int32_t v : run.captured) {
+    const Vec3d u(&run.frames.back().displacement_mm[3 * static_cast<std::size_t>(v)]);
+    EXPECT_LE((u - offset).norm(), 0.01 * offset.norm()) << "vertex " << v;
+  }
+  for (const int dof : model.fixed_dofs()) {
+    EXPECT_EQ(run.frames.back().displacement_mm[static_cast<std::size_t>(dof)], 0.0);
+  }
+}
+
 // A 4 mm sphere from 0.5 mm above the top face to 1 mm into it, at 1 mm/s.
 TraceDevice press_path() {
   return device_along(1500, [](std::size_t k) {
