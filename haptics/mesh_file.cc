@@ -386,4 +386,27 @@ MeshFileInfo read_mesh_info(const std::string& path) {
   return info;
 }
 
+engine::fem::TetMesh read_tet_mesh(const std::string& path) {
+  if (!has_mesh_group(path)) throw InputError(path, "not a mesh file (no /mesh group)");
+  const H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  const H5Id group(H5Gopen2(file.get(), "mesh", H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) throw InputError(path, "cannot open /mesh");
+  const auto rest = read_vector<double>(group.get(), "rest_mm", H5T_NATIVE_DOUBLE, path);
+  const auto tets = read_vector<std::int32_t>(group.get(), "tets", H5T_NATIVE_INT32, path);
+  auto labels = read_vector<std::int32_t>(group.get(), "tet_label", H5T_NATIVE_INT32, path);
+  if (rest.size() % 3 != 0 || tets.size() != 4 * labels.size()) {
+    throw InputError(path, "/mesh: rest_mm is not V x 3 or tets is not (tet_label's length) x 4");
+  }
+  engine::fem::TetMesh mesh;
+  mesh.rest_mm = Eigen::Map<const Eigen::Matrix3Xd>(rest.data(), 3,
+                                                    static_cast<Eigen::Index>(rest.size() / 3));
+  mesh.tets.resize(labels.size());
+  for (std::size_t t = 0; t < labels.size(); ++t) {
+    for (int a = 0; a < 4; ++a) mesh.tets[t][static_cast<std::size_t>(a)] = tets[4 * t + a];
+  }
+  mesh.labels = std::move(labels);
+  engine::fem::validate(mesh, path);
+  return mesh;
+}
+
 }  // namespace hapvox::haptics

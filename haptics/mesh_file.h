@@ -67,4 +67,8 @@ bool has_mesh_group(const std::string& path);
 /// Reads /mesh of a mesh file or session. Throws InputError(path, ...) when there is none.
 MeshFileInfo read_mesh_info(const std::string& path);
 
+/// The rest mesh (positions, tets, labels) of /mesh, checked with fem::validate. Throws
+/// InputError(path, ...) when there is none, a dataset is missing or has the wrong shape.
+engine::fem::TetMesh read_tet_mesh(const std::string& path);
+
 }  // namespace hapvox::haptics

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "engine/errors.h"
+#include "engine/fem/strain.h"
 #include "haptics/mesh_file.h"
 #include "haptics/session.h"
 #include "tools/cli.h"
@@ -107,6 +108,25 @@ void print_mesh(const std::string& path) {
   }
 }
 
+// A FEM session's strain at its last FEM step, per label (Nakao's Fig. 5 compares these).
+void print_fem_strain(const std::string& path) {
+  const engine::fem::TetMesh mesh = haptics::read_tet_mesh(path);
+  const std::vector<double> steps = haptics::read_session_column(path, "fem/step_tick");
+  const std::vector<double> all = haptics::read_session_column(path, "fem/displacement_mm");
+  const std::size_t per_step = 3 * static_cast<std::size_t>(mesh.vertex_count());
+  if (steps.empty() || all.size() != steps.size() * per_step) {
+    throw InputError(path, "fem/displacement_mm is not (fem/step_tick's length) x vertices x 3");
+  }
+  const Eigen::VectorXd last = Eigen::Map<const Eigen::VectorXd>(
+      all.data() + (steps.size() - 1) * per_step, static_cast<Eigen::Index>(per_step));
+  std::printf("  strain at the last FEM step (tick %.0f), volume-weighted per label:\n",
+              steps.back());
+  for (const auto& [label, s] : engine::fem::mean_strain_by_label(mesh, last)) {
+    std::printf("  label %-10d mean |eps| %.4e, mean equivalent %.4e, max |eps| %.4e\n", label,
+                s.mean_strain_norm, s.mean_equivalent_strain, s.max_strain_norm);
+  }
+}
+
 void run_info(const InfoFlags& f) {
   namespace fs = std::filesystem;
   const std::string ext = fs::path(f.path).extension().string();
@@ -130,7 +150,13 @@ void run_info(const InfoFlags& f) {
     }();
     if (!probe.datasets.empty()) {
       info_session(f.path);
-      if (haptics::has_mesh_group(f.path)) print_mesh(f.path);
+      if (haptics::has_mesh_group(f.path)) {
+        print_mesh(f.path);
+        const auto& names = probe.datasets;
+        if (std::find(names.begin(), names.end(), "/fem/displacement_mm") != names.end()) {
+          print_fem_strain(f.path);
+        }
+      }
     } else if (haptics::has_mesh_group(f.path)) {
       std::printf("%s: hapvox proxy mesh\n", f.path.c_str());
       print_mesh(f.path);
