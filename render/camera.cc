@@ -44,6 +44,17 @@ Eigen::Matrix4d OrbitCamera::projection(double aspect, double near_mm, double fa
   return m;
 }
 
+Eigen::Vector3d OrbitCamera::pixel_ray(int x, int y, int width, int height) const {
+  const Eigen::Vector3d f = view_direction();
+  const Eigen::Vector3d s = f.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d u = s.cross(f);
+  const double t = std::tan(0.5 * fov_y_deg * kDegToRad);
+  const double aspect = static_cast<double>(width) / height;
+  const double x_ndc = 2.0 * (x + 0.5) / width - 1.0;
+  const double y_ndc = 1.0 - 2.0 * (y + 0.5) / height;  // row 0 at the top
+  return (f + x_ndc * t * aspect * s + y_ndc * t * u).normalized();
+}
+
 OrbitCamera OrbitCamera::framing(const Eigen::Vector3d& lo_mm, const Eigen::Vector3d& hi_mm,
                                  double azimuth_deg, double elevation_deg) {
   OrbitCamera camera;

@@ -19,6 +19,9 @@ struct OrbitCamera {
   Eigen::Matrix4d view() const;
   /// Eye -> clip for an aspect ratio width / height; near and far planes in mm.
   Eigen::Matrix4d projection(double aspect, double near_mm, double far_mm) const;
+  /// Unit vector from the eye through the centre of pixel (x, y) of a width x height image
+  /// (row 0 at the top, as the PNGs hapvox writes): the ray picking follows (paper §3.2).
+  Eigen::Vector3d pixel_ray(int x, int y, int width, int height) const;
 
   /// A camera that sees the whole box [lo, hi] from this camera's angles.
   static OrbitCamera framing(const Eigen::Vector3d& lo_mm, const Eigen::Vector3d& hi_mm,

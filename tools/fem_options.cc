@@ -41,6 +41,8 @@ void add_fem_options(CLI::App& app, FemCliOptions& options) {
                                "(repeatable; labels default to 1, 2, ...)")
                     ->allow_extra_args(false);  // one value per --seed: VOLUME may follow
   labels->excludes(seeds);
+  add_pick_options(app, options.pick);
+  labels->excludes(app.get_option("--pick"));
   app.add_option("--seed-tolerance", options.seed_tolerance,
                  "Intensity difference a seed's region accepts (default: 10 % of the "
                  "volume's intensity range)")
@@ -78,8 +80,13 @@ engine::proxy::ProxyMesh build_proxy_from_cli(
   for (std::size_t i = 0; i < options.seeds.size(); ++i) {
     source.seeds.push_back(parse_seed(options.seeds[i], static_cast<int>(i) + 1));
   }
+  const std::vector<PixelPick> picks =
+      parse_picks(options.pick, static_cast<int>(source.seeds.size()) + 1);
   if (options.seed_tolerance >= 0) source.seed_tolerance = options.seed_tolerance;
   const engine::RawVolume intensity = engine::labels::read_scalar_volume(volume_spec);
+  for (const auto& seed : seeds_from_picks(intensity, volume_spec, options.pick, picks)) {
+    source.seeds.push_back(seed);
+  }
   const engine::labels::LabelMap labels = engine::proxy::proxy_labels(intensity, materials, source);
   engine::proxy::ProxyMeshOptions mesh_options;
   mesh_options.coarse_spacing_mm = options.spacing_mm;

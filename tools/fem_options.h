@@ -10,10 +10,11 @@
 
 #include "engine/proxy/proxy_mesh.h"
 #include "tools/cli.h"
+#include "tools/pick_options.h"
 
 namespace hapvox::cli {
 
-/// --materials, --labels, --seed, --seed-tolerance, --spacing-mm, --boundary-levels.
+/// --materials, --labels, --seed, --seed-tolerance, --pick..., --spacing-mm, --boundary-levels.
 struct FemCliOptions {
   std::string materials;           // the materials TOML file; required to build a mesh
   std::string labels;              // a label volume; "" for none
@@ -21,6 +22,7 @@ struct FemCliOptions {
   double seed_tolerance = -1;      // < 0: 10 % of the intensity range (the flag takes >= 0)
   double spacing_mm = 0;           // 0: the volume box's shortest side / 8
   int boundary_levels = 2;
+  PickCliOptions pick;  // --pick PX,PY[:LABEL]: seeds picked on the rendered image
 };
 
 /// Registers the flags on `app`; `options` must outlive the parse. --materials is optional

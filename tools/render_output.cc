@@ -10,7 +10,6 @@
 #include "engine/errors.h"
 
 namespace hapvox::cli {
-namespace {
 
 namespace fs = std::filesystem;
 
@@ -28,8 +27,6 @@ void parse_size(const std::string& text, const std::string& flag, int& width, in
   width = static_cast<int>(w);
   height = static_cast<int>(h);
 }
-
-}  // namespace
 
 void RenderFlags::add_to(CLI::App& app, const std::string& prefix) {
   const std::string p = "--" + prefix;

@@ -20,6 +20,9 @@ inline constexpr const char* kFrameFileNames = "frame_[0-9]{4,}\\.png";
 /// --transfer, --size, --slices, --tessellation, --patches, --kernel, --support-mm,
 /// --azimuth-deg, --elevation-deg (with a prefix such as "render-" where a command has
 /// flags of its own).
+/// "N" or "WxH" (16 to 8192 pixels each) into width and height; InputError(flag, ...).
+void parse_size(const std::string& text, const std::string& flag, int& width, int& height);
+
 struct RenderFlags {
   std::string transfer = "auto";
   std::string size = "512";

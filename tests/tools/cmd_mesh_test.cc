@@ -10,8 +10,11 @@
 #include <regex>
 #include <set>
 
+#include "engine/fem/tet_mesh.h"
 #include "engine/labels/four_spheres.h"
+#include "haptics/mesh_file.h"
 #include "haptics/session.h"
+#include "render/camera.h"
 #include "test_data.h"
 
 namespace hapvox {
@@ -114,6 +117,72 @@ TEST(MeshCli, SeedsMakeTheLabels) {
   const std::vector<double> labels =
       haptics::read_session_column(dir + "/out.h5", "/mesh/tet_label");
   EXPECT_EQ(std::set<double>(labels.begin(), labels.end()), (std::set<double>{0, 5}));
+}
+
+// Picking (Nakao §3.2): the pixel where `hapvox render` shows the sphere nearest the camera
+// seeds that sphere's region: label 5's tets fill it (centroid and volume), no other.
+TEST(MeshCli, APickedPixelSeedsTheSphereTheImageShowsThere) {
+  const std::string dir = scratch_dir();
+  const testing::FourSpheres phantom{24, 1.0};
+  const render::OrbitCamera camera = render::OrbitCamera::framing(
+      engine::Vec3d::Constant(-0.5), engine::Vec3d::Constant(23.5), 30.0, 25.0);
+  int nearest = 0;
+  for (int s = 1; s < 4; ++s) {
+    if ((phantom.centre_mm(s) - camera.eye_mm()).norm() <
+        (phantom.centre_mm(nearest) - camera.eye_mm()).norm()) {
+      nearest = s;
+    }
+  }
+  const int size = 256;
+  const Eigen::Vector4d clip =
+      camera.projection(1.0, 1.0, 1e4) * camera.view() * phantom.centre_mm(nearest).homogeneous();
+  const int px = static_cast<int>(0.5 * (clip.x() / clip.w() + 1.0) * size);
+  const int py = static_cast<int>(0.5 * (1.0 - clip.y() / clip.w()) * size);
+  const std::string materials = write(dir + "/m.toml", materials_text({0, 5}));
+  const auto r = run_hapvox("mesh " + std::string(kPhantom) + " --materials " + materials +
+                            " --pick " + std::to_string(px) + "," + std::to_string(py) +
+                            ":5 --pick-size 256 --pick-view 30,25 --seed-tolerance 0.05 -o " + dir +
+                            "/out.h5");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const engine::fem::TetMesh mesh = haptics::read_tet_mesh(dir + "/out.h5");
+  double volume = 0.0;
+  engine::Vec3d moment = engine::Vec3d::Zero();
+  for (int t = 0; t < mesh.tet_count(); ++t) {
+    if (mesh.labels[static_cast<std::size_t>(t)] != 5) continue;
+    const auto& tet = mesh.tets[static_cast<std::size_t>(t)];
+    const double v =
+        engine::fem::signed_volume_mm3(mesh.rest_mm.col(tet[0]), mesh.rest_mm.col(tet[1]),
+                                       mesh.rest_mm.col(tet[2]), mesh.rest_mm.col(tet[3]));
+    volume += v;
+    for (int a = 0; a < 4; ++a)
+      moment += 0.25 * v * mesh.rest_mm.col(tet[static_cast<std::size_t>(a)]);
+  }
+  ASSERT_GT(volume, 0.0) << "nothing got label 5";
+  EXPECT_LT((moment / volume - phantom.centre_mm(nearest)).norm(), 0.5)
+      << "picked sphere " << nearest << " at pixel " << px << "," << py;
+  EXPECT_NEAR(volume, static_cast<double>(phantom.lattice_count(nearest)),
+              0.05 * static_cast<double>(phantom.lattice_count(nearest)));
+
+  const std::string base =
+      std::string(kPhantom) + " --materials " + materials + " -o " + dir + "/out2.h5";
+  const auto expect_pick_error = [&](const std::string& args, const std::string& expected) {
+    const auto bad = run_hapvox("mesh " + base + args);
+    EXPECT_EQ(bad.exit_code, 2) << args << "\n" << bad.err;
+    EXPECT_EQ(bad.err, "hapvox: error: " + expected + "\n") << args;
+    EXPECT_FALSE(fs::exists(dir + "/out2.h5")) << args;
+  };
+  expect_pick_error(" --pick 0,0",
+                    "--pick: pixel 0,0 sees nothing: the accumulated opacity along its ray stays "
+                    "below 0.5");
+  expect_pick_error(" --pick 10", "--pick: expected PX,PY[:LABEL], got '10'");
+  expect_pick_error(" --pick 10,x",
+                    "--pick: expected PX,PY[:LABEL] with integer pixels, got '10,x'");
+  expect_pick_error(" --pick 600,3",
+                    "--pick: pixel '600,3' is outside the 512x512 image (--pick-size)");
+  expect_pick_error(" --pick 3,3:0", "--pick: label in '3,3:0' must lie in [1, 16777216]");
+  expect_pick_error(" --pick 3,3 --pick-threshold 1", "--pick-threshold: must lie in (0, 1)");
+  expect_pick_error(" --pick 3,3 --pick-view 30",
+                    "--pick-view: expected AZIMUTH,ELEVATION in degrees, got '30'");
 }
 
 TEST(MeshCli, EachBadInputIsOneLineAndExitTwo) {
