@@ -5,7 +5,7 @@ Usage: fig5_plot.py OUT.png TITLE PAPER.h5 UNIFORM.h5 AXIS VALUE CENTRES...
 Each session's displacement at its last FEM step is cut by the plane AXIS = VALUE (mm): the
 mesh's linear tets cross the plane in points where the displacement is interpolated exactly
 along the cut edges; those points are triangulated and |u| is drawn in colour with the
-in-plane displacement as arrows, for the paper's moduli, the uniform ones, and their
+in-plane displacement as arrows on a regular grid, for the paper's moduli, the uniform ones, and their
 difference. CENTRES are "x,y,z,r" spheres (mm) drawn as outlines where the plane cuts them.
 """
 import sys
@@ -58,17 +58,23 @@ def main():
     tri = mtri.Triangulation(p_points[:, plane[0]], p_points[:, plane[1]])
     fields = [("paper's moduli", p_u), ("uniform 10 MPa", u_u), ("difference", p_u - u_u)]
     top = max(np.linalg.norm(p_u, axis=1).max(), np.linalg.norm(u_u, axis=1).max())
-    fig, axes = plt.subplots(1, 3, figsize=(16, 5.4), constrained_layout=True)
-    rng = np.random.default_rng(5)
-    arrows = rng.choice(len(p_points), size=min(400, len(p_points)), replace=False)
+    fig, axes = plt.subplots(1, 3, figsize=(16, 5.8), constrained_layout=True)
+    # Arrows on a regular 20 x 20 grid, interpolated linearly on the cut's triangles, the
+    # longest one twice a grid cell.
+    lo = p_points[:, plane].min(axis=0)
+    hi = p_points[:, plane].max(axis=0)
+    gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], 22)[1:-1], np.linspace(lo[1], hi[1], 22)[1:-1])
+    cell = (hi[0] - lo[0]) / 21
     for ax, (name, field) in zip(axes, fields):
         magnitude = np.linalg.norm(field, axis=1)
         levels = np.linspace(0, top if name != "difference" else magnitude.max(), 21)
         shade = ax.tricontourf(tri, magnitude, levels=levels, cmap="viridis")
         fig.colorbar(shade, ax=ax, label="|u| (mm)")
-        ax.quiver(p_points[arrows, plane[0]], p_points[arrows, plane[1]],
-                  field[arrows, plane[0]], field[arrows, plane[1]], color="white",
-                  angles="xy", scale_units="xy", scale=0.25, width=0.003)
+        ax_u = mtri.LinearTriInterpolator(tri, field[:, plane[0]])(gx, gy)
+        ax_v = mtri.LinearTriInterpolator(tri, field[:, plane[1]])(gx, gy)
+        scale = max(np.sqrt(ax_u ** 2 + ax_v ** 2).max(), 1e-12) / (2 * cell)
+        ax.quiver(gx, gy, ax_u, ax_v, color="white", angles="xy", scale_units="xy",
+                  scale=scale, width=0.004)
         for x, y, z, r in spheres:
             centre = (x, y, z)
             d = abs(centre[axis] - value)
@@ -76,11 +82,11 @@ def main():
                 ax.add_patch(plt.Circle((centre[plane[0]], centre[plane[1]]),
                                         np.sqrt(r * r - d * d), fill=False, color="red", lw=1))
         ax.set_aspect("equal")
-        ax.set_title(name)
+        ax.set_title(f"{name}\nin-plane arrows: longest {2 * cell * scale:.3g} mm", fontsize=10)
         ax.set_xlabel("xyz"[plane[0]] + " (mm)")
         ax.set_ylabel("xyz"[plane[1]] + " (mm)")
     fig.suptitle(f"{title}: displacement at the last FEM step on the plane "
-                 f"{axis_name} = {value:g} mm (arrows x4)")
+                 f"{axis_name} = {value:g} mm")
     fig.savefig(out, dpi=90)
 
 
