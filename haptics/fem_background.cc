@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "engine/check.h"
+#include "engine/fem/contact_compliance.h"
 #include "engine/errors.h"
 #include "haptics/fem_model.h"
 #include "haptics/scheduler.h"
@@ -130,19 +131,9 @@ void FemBackgroundStage::make_snapshot(const Vec3d& proxy_mm, const Eigen::Vecto
     out.w_mm_per_n = current_.w_mm_per_n;
   } else {
     out.w_mm_per_n.setZero();
-  }
-  // W = H K^-1 H^T: one solve per contact DOF.
-  for (int j = 0; j < n && !same_set; ++j) {
-    for (int b = 0; b < 3; ++b) {
-      Eigen::VectorXd rhs = Eigen::VectorXd::Zero(partition.free_count());
-      rhs(partition.free_index(3 * vertices[j] + b)) = 1.0;
-      const Eigen::VectorXd z = solve_free(rhs);
-      for (int i = 0; i < n; ++i) {
-        for (int a = 0; a < 3; ++a) {
-          out.w_mm_per_n(3 * i + a, 3 * j + b) = z(partition.free_index(3 * vertices[i] + a));
-        }
-      }
-    }
+    engine::fem::condensed_compliance(
+        partition, vertices, [this](const Eigen::VectorXd& rhs) { return solve_free(rhs); },
+        out.w_mm_per_n.topLeftCorner(3 * n, 3 * n));
   }
   // Symmetric to the last bit, so that the force thread's M is.
   const auto w = out.w_mm_per_n.topLeftCorner(3 * n, 3 * n);

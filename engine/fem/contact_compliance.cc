@@ -8,6 +8,24 @@
 
 namespace hapvox::engine::fem {
 
+void condensed_compliance(const DofPartition& partition, std::span<const int> vertices,
+                          const FreeSolve& solve_free, Eigen::Ref<Eigen::MatrixXd> w_mm_per_n) {
+  const int m = 3 * static_cast<int>(vertices.size());
+  HAPVOX_CHECK_EQ(w_mm_per_n.rows(), m);
+  HAPVOX_CHECK_EQ(w_mm_per_n.cols(), m);
+  Eigen::VectorXd unit = Eigen::VectorXd::Zero(partition.free_count());
+  for (int j = 0; j < m; ++j) {
+    const int free_j = partition.free_index(dof_index(vertices[j / 3], j % 3));
+    unit[free_j] = 1.0;
+    const Eigen::VectorXd z = solve_free(unit);
+    unit[free_j] = 0.0;
+    HAPVOX_CHECK_EQ(z.size(), partition.free_count());
+    for (int i = 0; i < m; ++i) {
+      w_mm_per_n(i, j) = z[partition.free_index(dof_index(vertices[i / 3], i % 3))];
+    }
+  }
+}
+
 ContactCompliance::ContactCompliance(const DofPartition& partition,
                                      std::span<const int> contact_vertices,
                                      const FreeSolve& solve_free) {
@@ -37,19 +55,9 @@ ContactCompliance::ContactCompliance(const DofPartition& partition,
   }
   vertex_count_ = static_cast<int>(contact_vertices.size());
 
-  // Column j of W: the contact displacements under a unit force on contact DOF j.
   const int m = dof_count();
   w_.resize(m, m);
-  Eigen::VectorXd unit = Eigen::VectorXd::Zero(partition.free_count());
-  for (int j = 0; j < m; ++j) {
-    const int free_j = partition.free_index(dof_index(vertices_[j / 3], j % 3));
-    unit[free_j] = 1.0;
-    const Eigen::VectorXd z = solve_free(unit);
-    unit[free_j] = 0.0;
-    HAPVOX_CHECK_EQ(z.size(), partition.free_count());
-    for (int i = 0; i < m; ++i)
-      w_(i, j) = z[partition.free_index(dof_index(vertices_[i / 3], i % 3))];
-  }
+  condensed_compliance(partition, vertices(), solve_free, w_);
   if (m == 0) return;
   llt_.compute(w_);  // reads the lower triangle
   // W is a principal block of the SPD K_FF^-1, so this holds for any distinct free vertices.

@@ -17,6 +17,16 @@
 
 namespace hapvox::engine::fem {
 
+/// Solves K_FF z = rhs over the free DOFs of a partition.
+using FreeSolve = std::function<Eigen::VectorXd(const Eigen::VectorXd&)>;
+
+/// W = H K_FF^-1 H^T of `vertices` (each with all three DOFs free; not checked here), one
+/// solve per contact DOF: column j is the contact displacements under a unit force on
+/// contact DOF j; row and column 3c + i are vertex c's axis i. `w_mm_per_n` must be
+/// 3n x 3n. What ContactCompliance and the FEM thread's contact snapshots both build.
+void condensed_compliance(const DofPartition& partition, std::span<const int> vertices,
+                          const FreeSolve& solve_free, Eigen::Ref<Eigen::MatrixXd> w_mm_per_n);
+
 class ContactCompliance {
  public:
   static constexpr int kMaxVertices = 16;
@@ -24,8 +34,7 @@ class ContactCompliance {
   using Matrix =
       Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxDofs, kMaxDofs>;
   using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxDofs, 1>;
-  /// Solves K_FF z = rhs over the free DOFs of `partition`.
-  using FreeSolve = std::function<Eigen::VectorXd(const Eigen::VectorXd&)>;
+  using FreeSolve = fem::FreeSolve;
 
   /// W for `contact_vertices` (at most kMaxVertices, distinct, each with all three DOFs
   /// free), one solve per contact DOF. Throws InputError("contact set", ...) otherwise.
