@@ -78,7 +78,7 @@ GrabRun grab(const std::string& dir, const std::string& trace, const std::string
   return run;
 }
 
-TEST(Fig5, TheHardSpheresStrainIsAtMostOnePercentOfTheSoftOnesAndUniformModuliDiffer) {
+TEST(Fig5, HardToSoftSphereStrainIsEshelbysFractionAndUniformModuliDifferMeasurably) {
   const std::string dir = scratch_dir();
   const std::string trace = write_grab_trace(dir, 3.0);
   const GrabRun paper = grab(dir, trace, "data/four_spheres.toml", "paper");
