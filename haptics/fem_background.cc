@@ -9,8 +9,8 @@
 #include <thread>
 
 #include "engine/check.h"
-#include "engine/fem/contact_compliance.h"
 #include "engine/errors.h"
+#include "engine/fem/contact_compliance.h"
 #include "haptics/fem_model.h"
 #include "haptics/scheduler.h"
 

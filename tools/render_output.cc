@@ -82,7 +82,7 @@ RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume
   }
   s.mesh.support_mm = f.support_mm;
   s.mesh.voxel_mm = field.voxel_size_mm().minCoeff();
-  setup.transfer_spec = f.transfer != "auto"         ? f.transfer
+  setup.transfer_spec = f.transfer != "auto"      ? f.transfer
                         : fs::exists(volume_spec) ? "ct-bone"
                                                   : "clay";
   render::TransferFunction::from_spec(setup.transfer_spec);  // validated now, loaded later
@@ -177,8 +177,8 @@ haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
       // Absolute deadlines; a frame that ran long is not made up for.
       next = std::max(next + period, Clock::now());
       while (Clock::now() < next && !feed.done.load(std::memory_order_acquire)) {
-        std::this_thread::sleep_for(std::min<Clock::duration>(next - Clock::now(),
-                                                              std::chrono::milliseconds(5)));
+        std::this_thread::sleep_for(
+            std::min<Clock::duration>(next - Clock::now(), std::chrono::milliseconds(5)));
       }
     }
     renderer_.reset();
