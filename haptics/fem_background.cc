@@ -12,6 +12,8 @@
 #include "engine/errors.h"
 #include "engine/fem/contact_compliance.h"
 #include "haptics/fem_model.h"
+#include "haptics/hdf5_id.h"
+#include "haptics/mesh_file.h"
 #include "haptics/scheduler.h"
 
 namespace hapvox::haptics {
@@ -28,22 +30,19 @@ Vec3d vertex_of(const Eigen::VectorXd& u, std::int32_t v) {
 
 FemBackgroundStage::FemBackgroundStage(const FemModel& model, FemHandoff& handoff,
                                        const Vec3d& initial_device_mm)
-    : model_(model), handoff_(handoff), initial_device_mm_(initial_device_mm) {
-  const FemOptions& o = model_.options();
+    : model_(&model),
+      first_model_(&model),
+      handoff_(handoff),
+      initial_device_mm_(initial_device_mm) {
+  const FemOptions& o = model_->options();
   if (o.solver == FemSolver::kCorotational) {
     corotational_ = std::make_unique<engine::fem::CorotationalFem>(
-        model_.mesh(), model_.proxy().materials, model_.fixed_dofs(), o.corotational);
+        model_->mesh(), model_->proxy().materials, model_->fixed_dofs(), o.corotational);
   }
   if (o.interaction == FemInteraction::kGrab) {
-    // The free vertices within the capture radius, nearest first (ties by index).
-    std::vector<std::pair<double, std::int32_t>> near;
     double nearest_mm = INFINITY;
-    for (const std::int32_t v : model_.free_vertices()) {
-      const double d = (model_.mesh().rest_mm.col(v) - initial_device_mm).norm();
-      nearest_mm = std::min(nearest_mm, d);
-      if (d <= o.tool_radius_mm) near.emplace_back(d, v);
-    }
-    if (near.empty()) {
+    captured_ = capture(nearest_mm);
+    if (captured_.empty()) {
       char where[160];
       std::snprintf(where, sizeof where,
                     "nothing to grab within %g mm of (%g, %g, %g) mm (the nearest free vertex "
@@ -52,31 +51,106 @@ FemBackgroundStage::FemBackgroundStage(const FemModel& model, FemHandoff& handof
                     initial_device_mm.z(), nearest_mm);
       throw InputError("grab", where);
     }
-    std::sort(near.begin(), near.end());
-    near.resize(std::min<std::size_t>(near.size(), kMaxContactVertices));
-    for (const auto& [d, v] : near) captured_.push_back(v);
-    std::sort(captured_.begin(), captured_.end());
   }
 }
 
-FemBackgroundStage::~FemBackgroundStage() = default;
+FemBackgroundStage::~FemBackgroundStage() {
+  if (rebuild_thread_.joinable()) rebuild_thread_.join();
+}
+
+std::vector<std::int32_t> FemBackgroundStage::capture(double& nearest_mm) const {
+  // The free vertices within the capture radius, nearest first (ties by index).
+  std::vector<std::pair<double, std::int32_t>> near;
+  nearest_mm = INFINITY;
+  for (const std::int32_t v : model_->free_vertices()) {
+    const double d = (model_->mesh().rest_mm.col(v) - initial_device_mm_).norm();
+    nearest_mm = std::min(nearest_mm, d);
+    if (d <= model_->options().tool_radius_mm) near.emplace_back(d, v);
+  }
+  std::sort(near.begin(), near.end());
+  near.resize(std::min<std::size_t>(near.size(), kMaxContactVertices));
+  std::vector<std::int32_t> captured;
+  for (const auto& [d, v] : near) captured.push_back(v);
+  std::sort(captured.begin(), captured.end());
+  return captured;
+}
+
+void FemBackgroundStage::set_label_changes(std::vector<LabelChange> changes) {
+  HAPVOX_CHECK(
+      std::is_sorted(changes.begin(), changes.end(),
+                     [](const LabelChange& a, const LabelChange& b) { return a.tick < b.tick; }));
+  changes_ = std::move(changes);
+  next_change_ = 0;
+}
+
+bool FemBackgroundStage::run_label_changes(std::int64_t tick) {
+  if (next_change_ >= changes_.size()) return false;
+  const LabelChange& change = changes_[next_change_];
+  if (!realtime_) {
+    if (tick < change.tick) return false;
+    take_over(build_remesh(change, *model_), tick);
+    return true;
+  }
+  if (!rebuild_thread_.joinable()) {
+    if (tick < change.tick) return false;
+    rebuild_done_.store(false, std::memory_order_relaxed);
+    // Built against the current model, which stays current until this build is taken over.
+    rebuild_thread_ = std::thread([this, &change, previous = model_] {
+      try {
+        rebuilt_ = build_remesh(change, *previous);
+      } catch (...) {
+        rebuild_failure_ = std::current_exception();
+      }
+      rebuild_done_.store(true, std::memory_order_release);
+    });
+    return false;
+  }
+  if (!rebuild_done_.load(std::memory_order_acquire)) return false;
+  rebuild_thread_.join();
+  if (rebuild_failure_ != nullptr) std::rethrow_exception(rebuild_failure_);
+  take_over(std::move(rebuilt_), tick);
+  return true;
+}
+
+void FemBackgroundStage::take_over(std::unique_ptr<FemRemesh> remesh, std::int64_t tick) {
+  HAPVOX_CHECK_EQ(remesh->from_previous.size(),
+                  static_cast<std::size_t>(remesh->model->mesh().vertex_count()));
+  displacement_mm_ = engine::fem::interpolate_vector_field(remesh->from_previous, displacement_mm_);
+  for (const int dof : remesh->model->fixed_dofs()) displacement_mm_(dof) = 0.0;
+  if (model_->options().interaction != FemInteraction::kGrab) captured_of_.emplace_back();
+  model_ = remesh->model.get();
+  corotational_ = std::move(remesh->corotational);
+  if (model_->options().interaction == FemInteraction::kGrab) {
+    // Captured again at rest, as at the start: the vertices a newly fixed label took are
+    // let go (none left: the grab holds nothing).
+    double nearest_mm = 0.0;
+    captured_of_.push_back(std::move(captured_));
+    captured_ = capture(nearest_mm);
+  }
+  // The snapshot's vertices are the old mesh's: none may be taken for the new one's.
+  current_.count = 0;
+  scratch_ = PressScratch{};
+  ++next_change_;
+  remesh->taken_tick = tick;
+  remeshes_.push_back(std::move(remesh));
+}
 
 std::vector<VertexClass> FemBackgroundStage::vertex_classes() const {
-  std::vector<VertexClass> classes = model_.proxy().vertex_classes;
+  std::vector<VertexClass> classes = model_->proxy().vertex_classes;
   for (const std::int32_t v : captured_) classes[v] = VertexClass::kConstrained;
   return classes;
 }
 
 Eigen::VectorXd FemBackgroundStage::solve_free(const Eigen::VectorXd& rhs) const {
   return corotational_ != nullptr ? corotational_->solve_free(rhs)
-                                  : model_.linear().solve_free(rhs);
+                                  : model_->linear().solve_free(rhs);
 }
 
 Eigen::VectorXd FemBackgroundStage::contact_loads(const ContactSnapshot& snapshot,
                                                   const Vec3d& device_mm,
                                                   const Vec3d& proxy_hint_mm, Vec3d& proxy_mm) {
-  const FemOptions& o = model_.options();
-  Eigen::VectorXd loads = Eigen::VectorXd::Zero(3 * model_.mesh().vertex_count());
+  const FemOptions& o = model_->options();
+  Eigen::VectorXd loads = Eigen::VectorXd::Zero(3 * model_->mesh().vertex_count());
   if (o.interaction == FemInteraction::kPress) {
     const ContactSolve solve = solve_press(snapshot, device_mm, proxy_hint_mm, o.tool_radius_mm,
                                            o.coupling_n_per_mm, scratch_);
@@ -102,16 +176,16 @@ Eigen::VectorXd FemBackgroundStage::contact_loads(const ContactSnapshot& snapsho
 
 void FemBackgroundStage::make_snapshot(const Vec3d& proxy_mm, const Eigen::VectorXd& loads_n,
                                        ContactSnapshot& out) {
-  const FemOptions& o = model_.options();
-  const engine::fem::TetMesh& mesh = model_.mesh();
-  const engine::fem::DofPartition& partition = model_.linear().partition();
+  const FemOptions& o = model_->options();
+  const engine::fem::TetMesh& mesh = model_->mesh();
+  const engine::fem::DofPartition& partition = model_->linear().partition();
   std::vector<std::int32_t> vertices;
   if (o.interaction == FemInteraction::kGrab) {
     vertices = captured_;
   } else {
     // Vertices in contact stay; then the nearest to the tool's surface within the margin.
     std::vector<std::pair<double, std::int32_t>> near;
-    for (const std::int32_t v : model_.surface_vertices()) {
+    for (const std::int32_t v : model_->surface_vertices()) {
       const Vec3d x = mesh.rest_mm.col(v) + vertex_of(displacement_mm_, v);
       const double gap = (x - proxy_mm).norm() - o.tool_radius_mm;
       const bool loaded = loads_n.segment<3>(3 * v).squaredNorm() > 0.0;
@@ -186,15 +260,33 @@ void FemBackgroundStage::make_snapshot(const Vec3d& proxy_mm, const Eigen::Vecto
 
 void FemBackgroundStage::fem_step(const Vec3d& device_mm, const Vec3d& tick_proxy_mm,
                                   std::int64_t tick) {
-  const int dofs = 3 * model_.mesh().vertex_count();
   Vec3d proxy_mm = device_mm;
-  Eigen::VectorXd loads = Eigen::VectorXd::Zero(dofs);
+  Eigen::VectorXd loads = Eigen::VectorXd::Zero(3 * model_->mesh().vertex_count());
   if (steps_ > 0) loads = contact_loads(current_, device_mm, tick_proxy_mm, proxy_mm);
+  if (steps_ > 0 && run_label_changes(tick)) {
+    // The loads found on the old mesh's snapshot belong to its vertices: solve the contact
+    // again on a snapshot of the new mesh, about the proxy found on the old one.
+    // The loads that hold the carried-over shape: its elastic forces (co-rotational; the
+    // linear snapshot needs none: its bases are the rest positions and a grab's forces
+    // follow from its offset).
+    Eigen::VectorXd held_n = Eigen::VectorXd::Zero(3 * model_->mesh().vertex_count());
+    if (corotational_ != nullptr) {
+      held_n = corotational_->elastic_forces_n(displacement_mm_);
+      for (const int dof : model_->fixed_dofs()) held_n(dof) = 0.0;
+    }
+    auto provisional = std::make_unique<ContactSnapshot>();  // 73 kB: not on the stack
+    provisional->anchor_mm = current_.anchor_mm;
+    provisional->fem_step = ~std::uint64_t{0} - 1;
+    make_snapshot(proxy_mm, held_n, *provisional);
+    const Vec3d old_proxy_mm = proxy_mm;
+    loads = contact_loads(*provisional, device_mm, old_proxy_mm, proxy_mm);
+  }
+  const int dofs = 3 * model_->mesh().vertex_count();
   const Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(dofs);
   if (corotational_ != nullptr) {
     displacement_mm_ = corotational_->step_mm(displacement_mm_, loads, prescribed);
   } else {
-    displacement_mm_ = model_.linear().solve_mm(loads, prescribed);
+    displacement_mm_ = model_->linear().solve_mm(loads, prescribed);
   }
   ContactSnapshot& next = handoff_.snapshots.write_slot();
   next.anchor_mm = current_.anchor_mm;
@@ -203,11 +295,12 @@ void FemBackgroundStage::fem_step(const Vec3d& device_mm, const Vec3d& tick_prox
   current_ = next;
   handoff_.snapshots.publish();
   frames_.push_back(
-      FemFrame{tick, std::vector<double>(displacement_mm_.data(), displacement_mm_.data() + dofs)});
+      FemFrame{tick, std::vector<double>(displacement_mm_.data(), displacement_mm_.data() + dofs),
+               static_cast<int>(remeshes_.size())});
 }
 
 void FemBackgroundStage::begin() {
-  displacement_mm_ = Eigen::VectorXd::Zero(3 * model_.mesh().vertex_count());
+  displacement_mm_ = Eigen::VectorXd::Zero(3 * model_->mesh().vertex_count());
   frames_.clear();
   steps_ = 0;
   current_ = ContactSnapshot{};
@@ -216,7 +309,7 @@ void FemBackgroundStage::begin() {
 
 void FemBackgroundStage::run_lockstep_tick(std::size_t tick, TickRecord& row,
                                            const LockstepRender*) {
-  if ((tick + 1) % model_.options().fem_every_ticks == 0) {
+  if ((tick + 1) % model_->options().fem_every_ticks == 0) {
     fem_step(row.tool_position_mm, row.tool_position_mm + row.displacement_mm,
              static_cast<std::int64_t>(tick));
   }
@@ -224,9 +317,10 @@ void FemBackgroundStage::run_lockstep_tick(std::size_t tick, TickRecord& row,
 
 void FemBackgroundStage::run_realtime(const std::atomic<bool>& force_done, Clock::time_point start,
                                       RenderFeed*, BackgroundTiming& timing) {
+  realtime_ = true;
   const double cpu_start = thread_cpu_s();
   const auto period = std::chrono::nanoseconds(
-      static_cast<std::int64_t>(std::llround(1e9 / model_.options().fem_rate_hz)));
+      static_cast<std::int64_t>(std::llround(1e9 / model_->options().fem_rate_hz)));
   auto next = Clock::now();
   std::int64_t last_tick = -1;
   while (!force_done.load(std::memory_order_acquire)) {
@@ -258,6 +352,7 @@ void FemBackgroundStage::run_realtime(const std::atomic<bool>& force_done, Clock
 
 SculptSummary FemBackgroundStage::finish(const LockstepRender*, RenderFeed*,
                                          const std::atomic<bool>*) {
+  if (rebuild_thread_.joinable()) rebuild_thread_.join();  // a build the run ended before
   if (failure_ != nullptr) std::rethrow_exception(failure_);
   SculptSummary summary;
   summary.settled = true;
@@ -265,24 +360,59 @@ SculptSummary FemBackgroundStage::finish(const LockstepRender*, RenderFeed*,
 }
 
 void FemBackgroundStage::write_session(SessionWriter& session, double t0_s, double rate_hz) const {
-  const std::size_t vertices = static_cast<std::size_t>(model_.mesh().vertex_count());
-  std::vector<double> displacement;
-  displacement.reserve(frames_.size() * 3 * vertices);
-  std::vector<std::int64_t> ticks;
-  std::vector<double> times;
-  for (const FemFrame& frame : frames_) {
-    displacement.insert(displacement.end(), frame.displacement_mm.begin(),
-                        frame.displacement_mm.end());
-    ticks.push_back(frame.tick);
-    times.push_back(t0_s + static_cast<double>(frame.tick) / rate_hz);
+  // One group per mesh: the run's in fem/, the k-th remesh's in fem/remesh_k/.
+  for (std::size_t mesh = 0; mesh <= remeshes_.size(); ++mesh) {
+    const FemModel& model = mesh == 0 ? *first_model_ : *remeshes_[mesh - 1]->model;
+    const std::string group = mesh == 0 ? "fem/" : "fem/remesh_" + std::to_string(mesh) + "/";
+    const std::size_t vertices = static_cast<std::size_t>(model.mesh().vertex_count());
+    std::vector<double> displacement;
+    std::vector<std::int64_t> ticks;
+    std::vector<double> times;
+    for (const FemFrame& frame : frames_) {
+      if (frame.mesh != static_cast<int>(mesh)) continue;
+      displacement.insert(displacement.end(), frame.displacement_mm.begin(),
+                          frame.displacement_mm.end());
+      ticks.push_back(frame.tick);
+      times.push_back(t0_s + static_cast<double>(frame.tick) / rate_hz);
+    }
+    session.write_array(group + "displacement_mm", displacement, {ticks.size(), vertices, 3}, "mm");
+    session.write_array(group + "step_tick", ticks, nullptr);
+    session.write_array(group + "step_time_s", times, {times.size()}, "s");
+    std::vector<std::int64_t> classes;
+    for (const VertexClass c : model.proxy().vertex_classes) {
+      classes.push_back(static_cast<std::int64_t>(c));
+    }
+    if (mesh == remeshes_.size()) {  // the current mesh: the grab's vertices constrained
+      for (const std::int32_t v : captured_) {
+        classes[v] = static_cast<std::int64_t>(VertexClass::kConstrained);
+      }
+    } else {  // an earlier mesh: the vertices the grab held on it
+      for (const std::int32_t v : captured_of_[mesh]) {
+        classes[v] = static_cast<std::int64_t>(VertexClass::kConstrained);
+      }
+    }
+    session.write_array(group + "vertex_class", classes, nullptr);
+    if (mesh > 0) {
+      const H5Id handle(H5Gopen2(session.file_handle(), group.c_str(), H5P_DEFAULT), H5Gclose);
+      HAPVOX_CHECK(handle.valid());
+      write_proxy_mesh(handle.get(), model.proxy());
+    }
   }
-  session.write_array("fem/displacement_mm", displacement, {frames_.size(), vertices, 3}, "mm");
-  session.write_array("fem/step_tick", ticks, nullptr);
-  session.write_array("fem/step_time_s", times, {times.size()}, "s");
-  std::vector<std::int64_t> classes;
-  for (const VertexClass c : vertex_classes()) classes.push_back(static_cast<std::int64_t>(c));
-  session.write_array("fem/vertex_class", classes, nullptr);
+  std::vector<std::int64_t> change_ticks;
+  std::vector<std::int64_t> taken_ticks;
+  std::vector<double> build_s;
+  for (const auto& remesh : remeshes_) {
+    change_ticks.push_back(remesh->change_tick);
+    taken_ticks.push_back(remesh->taken_tick);
+    build_s.push_back(remesh->build_s);
+  }
+  if (!remeshes_.empty()) {
+    session.write_array("fem/remesh_change_tick", change_ticks, nullptr);
+    session.write_array("fem/remesh_taken_tick", taken_ticks, nullptr);
+    session.write_array("fem/remesh_build_s", build_s, {build_s.size()}, "s");
+  }
   session.set_attribute("fem_steps", static_cast<std::int64_t>(steps_));
+  session.set_attribute("fem_remeshes", static_cast<std::int64_t>(remeshes_.size()));
   session.set_attribute("grabbed_vertices", static_cast<std::int64_t>(captured_.size()));
 }
 

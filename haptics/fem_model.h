@@ -23,12 +23,14 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "engine/fem/corotational.h"
 #include "engine/fem/linear_fem.h"
 #include "engine/proxy/proxy_mesh.h"
 #include "haptics/fem_contact.h"
+#include "haptics/fem_remesh.h"
 #include "haptics/model_stages.h"
 #include "haptics/render_feed.h"
 
@@ -161,7 +163,8 @@ class FemForceStage final : public ForceStage {
 /// One FEM step's node displacements.
 struct FemFrame {
   std::int64_t tick = 0;                // the force tick whose device position it solved for
-  std::vector<double> displacement_mm;  // 3 per vertex, x fastest
+  std::vector<double> displacement_mm;  // 3 per vertex of its mesh, x fastest
+  int mesh = 0;                         // 0: the run's first mesh; k: the k-th remesh's
 };
 
 /// The proxy-FEM model's background stage: the FEM.
@@ -172,6 +175,9 @@ class FemBackgroundStage final : public BackgroundStage {
   /// (InputError("grab", ...) when there are none).
   FemBackgroundStage(const FemModel& model, FemHandoff& handoff, const Vec3d& initial_device_mm);
   ~FemBackgroundStage() override;
+
+  /// Label changes to run (haptics/fem_remesh.h), in tick order; before begin().
+  void set_label_changes(std::vector<LabelChange> changes);
 
   void begin() override;
   void run_lockstep_tick(std::size_t tick, TickRecord& row, const LockstepRender* render) override;
@@ -190,13 +196,28 @@ class FemBackgroundStage final : public BackgroundStage {
   /// The vertices a grab captured (empty for a press).
   const std::vector<std::int32_t>& captured_vertices() const { return captured_; }
   std::uint64_t steps() const { return steps_; }
-  /// Per-vertex classes at the end: fixed, free, or constrained (captured by a grab).
+  /// The model the FEM steps now: the run's, or the last remesh taken over.
+  const FemModel& model() const { return *model_; }
+  /// The remeshes taken over, in order (frames with mesh = k + 1 are the k-th's).
+  const std::vector<std::unique_ptr<FemRemesh>>& remeshes() const { return remeshes_; }
+  /// Per-vertex classes of the current model at the end: fixed, free, or constrained.
   std::vector<engine::fem::VertexClass> vertex_classes() const;
-  /// The FEM's datasets: fem/displacement_mm (steps x vertices x 3), fem/step_tick,
-  /// fem/step_time_s (from the tick and `rate_hz`, starting at `t0_s`), fem/vertex_class.
+  /// The FEM's datasets for the run's first mesh: fem/displacement_mm (steps x vertices x
+  /// 3), fem/step_tick, fem/step_time_s (from the tick and `rate_hz`, starting at `t0_s`),
+  /// fem/vertex_class; for the k-th remesh the same under fem/remesh_k/, with its mesh as
+  /// fem/remesh_k/mesh (haptics/mesh_file.h) and its change_tick and build_s as attributes.
   void write_session(SessionWriter& session, double t0_s, double rate_hz) const;
 
  private:
+  // The free vertices of the current model within the tool radius of the initial device
+  // position, nearest first, at most kMaxContactVertices, sorted; and the nearest's distance.
+  std::vector<std::int32_t> capture(double& nearest_mm) const;
+  // Lockstep: builds a due change now; realtime: starts its build, and takes over one that
+  // finished. True when the model changed.
+  bool run_label_changes(std::int64_t tick);
+  // Makes `remesh` the current model: the displacement carried over, the grab's vertices
+  // captured again, the co-rotational solver replaced.
+  void take_over(std::unique_ptr<FemRemesh> remesh, std::int64_t tick);
   // One FEM step for the device at `device_mm` whose tick left the proxy at `proxy_mm`
   // (the press normals' centre), the step's frame recorded for `tick`.
   void fem_step(const Vec3d& device_mm, const Vec3d& proxy_mm, std::int64_t tick);
@@ -209,14 +230,26 @@ class FemBackgroundStage final : public BackgroundStage {
   // The next snapshot for the proxy at `proxy_mm` with loads `loads_n`.
   void make_snapshot(const Vec3d& proxy_mm, const Eigen::VectorXd& loads_n, ContactSnapshot& out);
 
-  const FemModel& model_;
+  const FemModel* model_;        // the run's, or remeshes_.back()'s
+  const FemModel* first_model_;  // the run's
   FemHandoff& handoff_;
   Vec3d initial_device_mm_;
+  std::vector<LabelChange> changes_;
+  std::size_t next_change_ = 0;
+  std::vector<std::unique_ptr<FemRemesh>> remeshes_;
+  bool realtime_ = false;
+  // Realtime: the build of changes_[next_change_] on a thread of its own. rebuild_done_
+  // (release) publishes rebuilt_ or rebuild_failure_ to the FEM thread.
+  std::thread rebuild_thread_;
+  std::atomic<bool> rebuild_done_{false};
+  std::unique_ptr<FemRemesh> rebuilt_;
+  std::exception_ptr rebuild_failure_;
   std::unique_ptr<engine::fem::CorotationalFem> corotational_;
   Eigen::VectorXd displacement_mm_;
   ContactSnapshot current_;  // what was published last (the FEM thread's copy)
   PressScratch scratch_;
   std::vector<std::int32_t> captured_;
+  std::vector<std::vector<std::int32_t>> captured_of_;  // on each earlier mesh
   // Grab: W^-1 of the captured vertices and their forces at the last step.
   Eigen::MatrixXd grab_w_inverse_;
   Eigen::VectorXd grab_vertex_forces_n_;
