@@ -413,6 +413,8 @@ void FemBackgroundStage::write_session(SessionWriter& session, double t0_s, doub
   }
   session.set_attribute("fem_steps", static_cast<std::int64_t>(steps_));
   session.set_attribute("fem_remeshes", static_cast<std::int64_t>(remeshes_.size()));
+  session.set_attribute("fem_label_changes_not_taken",
+                        static_cast<std::int64_t>(label_changes_not_taken()));
   session.set_attribute("grabbed_vertices", static_cast<std::int64_t>(captured_.size()));
 }
 

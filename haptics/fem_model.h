@@ -200,6 +200,9 @@ class FemBackgroundStage final : public BackgroundStage {
   const FemModel& model() const { return *model_; }
   /// The remeshes taken over, in order (frames with mesh = k + 1 are the k-th's).
   const std::vector<std::unique_ptr<FemRemesh>>& remeshes() const { return remeshes_; }
+  /// Label changes the run ended before taking over (a realtime build still running, or
+  /// due after the last FEM step).
+  std::size_t label_changes_not_taken() const { return changes_.size() - next_change_; }
   /// Per-vertex classes of the current model at the end: fixed, free, or constrained.
   std::vector<engine::fem::VertexClass> vertex_classes() const;
   /// The FEM's datasets for the run's first mesh: fem/displacement_mm (steps x vertices x

@@ -127,24 +127,24 @@ std::string data_item(const std::string& dims, const char* number_type, int prec
 
 // The topology, geometry and the mesh's own attributes of one grid, indented by `pad`.
 std::string grid_body(const std::string& h5, int vertex_count, int tet_count,
-                      const std::string& pad) {
+                      const std::string& pad, const std::string& mesh = "/mesh") {
   const std::string v = std::to_string(vertex_count);
   const std::string t = std::to_string(tet_count);
   std::ostringstream out;
   out << pad << "<Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"" << t << "\">\n"
-      << pad << "  " << data_item(t + " 4", "Int", 4, h5, "/mesh/tets") << "\n"
+      << pad << "  " << data_item(t + " 4", "Int", 4, h5, mesh + "/tets") << "\n"
       << pad << "</Topology>\n"
       << pad << "<Geometry GeometryType=\"XYZ\">\n"
-      << pad << "  " << data_item(v + " 3", "Float", 8, h5, "/mesh/rest_mm") << "\n"
+      << pad << "  " << data_item(v + " 3", "Float", 8, h5, mesh + "/rest_mm") << "\n"
       << pad << "</Geometry>\n"
       << pad << "<Attribute Name=\"label\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
-      << pad << "  " << data_item(t, "Int", 4, h5, "/mesh/tet_label") << "\n"
+      << pad << "  " << data_item(t, "Int", 4, h5, mesh + "/tet_label") << "\n"
       << pad << "</Attribute>\n"
       << pad << "<Attribute Name=\"youngs_modulus_pa\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
-      << pad << "  " << data_item(t, "Float", 8, h5, "/mesh/youngs_modulus_pa") << "\n"
+      << pad << "  " << data_item(t, "Float", 8, h5, mesh + "/youngs_modulus_pa") << "\n"
       << pad << "</Attribute>\n"
       << pad << "<Attribute Name=\"vertex_class\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-      << pad << "  " << data_item(v, "UChar", 1, h5, "/mesh/vertex_class") << "\n"
+      << pad << "  " << data_item(v, "UChar", 1, h5, mesh + "/vertex_class") << "\n"
       << pad << "</Attribute>\n";
   return out.str();
 }
@@ -265,30 +265,42 @@ void write_mesh_file(const std::string& path, const ProxyMesh& proxy) {
 void write_xdmf_time_series(const std::string& xdmf_path, const std::string& h5_file_name,
                             int vertex_count, int tet_count, const std::vector<double>& times_s,
                             const std::string& displacement_dataset) {
+  write_xdmf_time_series(
+      xdmf_path, h5_file_name,
+      {XdmfSeries{"/mesh", vertex_count, tet_count, times_s, displacement_dataset}});
+}
+
+void write_xdmf_time_series(const std::string& xdmf_path, const std::string& h5_file_name,
+                            const std::vector<XdmfSeries>& series) {
   const std::string h5 = xml_escaped(h5_file_name);
-  const std::string v = std::to_string(vertex_count);
-  const std::string steps = std::to_string(times_s.size());
   std::ostringstream out;
   out.precision(17);
   out << kXdmfHeader
       << "    <Grid Name=\"displacement\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (std::size_t step = 0; step < times_s.size(); ++step) {
-    const std::string pad = "        ";
-    out << "      <Grid Name=\"step " << step << "\" GridType=\"Uniform\">\n"
-        << pad << "<Time Value=\"" << times_s[step] << "\"/>\n"
-        << grid_body(h5, vertex_count, tet_count, pad) << pad
-        << "<Attribute Name=\"displacement_mm\" AttributeType=\"Vector\" Center=\"Node\">\n"
-        << pad << "  <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 " << v
-        << " 3\" Type=\"HyperSlab\">\n"
-        // Start, stride and count per axis of the (steps, V, 3) dataset.
-        << pad << "    <DataItem Dimensions=\"3 3\" Format=\"XML\">" << step << " 0 0 1 1 1 1 " << v
-        << " 3</DataItem>\n"
-        << pad << "    "
-        << data_item(steps + " " + v + " 3", "Float", 8, h5, xml_escaped(displacement_dataset))
-        << "\n"
-        << pad << "  </DataItem>\n"
-        << pad << "</Attribute>\n"
-        << "      </Grid>\n";
+  std::size_t grid = 0;
+  for (const XdmfSeries& one : series) {
+    const std::string v = std::to_string(one.vertex_count);
+    const std::string steps = std::to_string(one.times_s.size());
+    const std::string mesh = xml_escaped(one.mesh_group);
+    for (std::size_t step = 0; step < one.times_s.size(); ++step, ++grid) {
+      const std::string pad = "        ";
+      out << "      <Grid Name=\"step " << grid << "\" GridType=\"Uniform\">\n"
+          << pad << "<Time Value=\"" << one.times_s[step] << "\"/>\n"
+          << grid_body(h5, one.vertex_count, one.tet_count, pad, mesh) << pad
+          << "<Attribute Name=\"displacement_mm\" AttributeType=\"Vector\" Center=\"Node\">\n"
+          << pad << "  <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 " << v
+          << " 3\" Type=\"HyperSlab\">\n"
+          // Start, stride and count per axis of the (steps, V, 3) dataset.
+          << pad << "    <DataItem Dimensions=\"3 3\" Format=\"XML\">" << step << " 0 0 1 1 1 1 "
+          << v << " 3</DataItem>\n"
+          << pad << "    "
+          << data_item(steps + " " + v + " 3", "Float", 8, h5,
+                       xml_escaped(one.displacement_dataset))
+          << "\n"
+          << pad << "  </DataItem>\n"
+          << pad << "</Attribute>\n"
+          << "      </Grid>\n";
+    }
   }
   out << "    </Grid>\n" << kXdmfFooter;
   write_text_file(xdmf_path, out.str());
@@ -386,11 +398,12 @@ MeshFileInfo read_mesh_info(const std::string& path) {
   return info;
 }
 
-engine::fem::TetMesh read_tet_mesh(const std::string& path) {
+engine::fem::TetMesh read_tet_mesh(const std::string& path, const std::string& group_path) {
   if (!has_mesh_group(path)) throw InputError(path, "not a mesh file (no /mesh group)");
   const H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  const H5Id group(H5Gopen2(file.get(), "mesh", H5P_DEFAULT), H5Gclose);
-  if (!group.valid()) throw InputError(path, "cannot open /mesh");
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const H5Id group(H5Gopen2(file.get(), group_path.c_str(), H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) throw InputError(path, "cannot open /" + group_path);
   const auto rest = read_vector<double>(group.get(), "rest_mm", H5T_NATIVE_DOUBLE, path);
   const auto tets = read_vector<std::int32_t>(group.get(), "tets", H5T_NATIVE_INT32, path);
   auto labels = read_vector<std::int32_t>(group.get(), "tet_label", H5T_NATIVE_INT32, path);

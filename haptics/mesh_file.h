@@ -42,6 +42,19 @@ std::string mesh_xdmf(const std::string& h5_file_name, int vertex_count, int tet
 void write_xdmf_time_series(const std::string& xdmf_path, const std::string& h5_file_name,
                             int vertex_count, int tet_count, const std::vector<double>& times_s,
                             const std::string& displacement_dataset);
+/// One mesh's part of a time series: its group ("/mesh", "/fem/remesh_1/mesh"), counts, the
+/// times of its steps and the (steps, V, 3) dataset of their displacements.
+struct XdmfSeries {
+  std::string mesh_group;
+  int vertex_count = 0;
+  int tet_count = 0;
+  std::vector<double> times_s;
+  std::string displacement_dataset;
+};
+/// As above, over several meshes in turn (a run whose mesh was rebuilt): one temporal
+/// collection whose grids take each series' mesh.
+void write_xdmf_time_series(const std::string& xdmf_path, const std::string& h5_file_name,
+                            const std::vector<XdmfSeries>& series);
 
 /// What `hapvox info` shows of a file with a /mesh group.
 struct MeshFileInfo {
@@ -67,8 +80,9 @@ bool has_mesh_group(const std::string& path);
 /// Reads /mesh of a mesh file or session. Throws InputError(path, ...) when there is none.
 MeshFileInfo read_mesh_info(const std::string& path);
 
-/// The rest mesh (positions, tets, labels) of /mesh, checked with fem::validate. Throws
+/// The rest mesh (positions, tets, labels) of /mesh (or of another mesh group, e.g. a
+/// session's "fem/remesh_1/mesh"), checked with fem::validate. Throws
 /// InputError(path, ...) when there is none, a dataset is missing or has the wrong shape.
-engine::fem::TetMesh read_tet_mesh(const std::string& path);
+engine::fem::TetMesh read_tet_mesh(const std::string& path, const std::string& group_path = "mesh");
 
 }  // namespace hapvox::haptics

@@ -108,17 +108,27 @@ void print_mesh(const std::string& path) {
   }
 }
 
-// A FEM session's strain at its last FEM step, per label (Nakao's Fig. 5 compares these).
-void print_fem_strain(const std::string& path) {
-  const engine::fem::TetMesh mesh = haptics::read_tet_mesh(path);
-  const std::vector<double> steps = haptics::read_session_column(path, "fem/step_tick");
-  const std::vector<double> all = haptics::read_session_column(path, "fem/displacement_mm");
+// A FEM session's strain at its last FEM step, per label (Nakao's Fig. 5 compares these), on
+// the mesh that step solved on: the run's, or its last remesh's (fem/remesh_k/).
+void print_fem_strain(const std::string& path, int remeshes) {
+  const std::string group = remeshes == 0 ? "fem/" : "fem/remesh_" + std::to_string(remeshes) + "/";
+  const engine::fem::TetMesh mesh =
+      haptics::read_tet_mesh(path, remeshes == 0 ? "mesh" : group + "mesh");
+  const std::vector<double> steps = haptics::read_session_column(path, group + "step_tick");
+  const std::vector<double> all = haptics::read_session_column(path, group + "displacement_mm");
   const std::size_t per_step = 3 * static_cast<std::size_t>(mesh.vertex_count());
   if (steps.empty() || all.size() != steps.size() * per_step) {
-    throw InputError(path, "fem/displacement_mm is not (fem/step_tick's length) x vertices x 3");
+    throw InputError(
+        path, group + "displacement_mm is not (" + group + "step_tick's length) x vertices x 3");
   }
   const Eigen::VectorXd last = Eigen::Map<const Eigen::VectorXd>(
       all.data() + (steps.size() - 1) * per_step, static_cast<Eigen::Index>(per_step));
+  if (remeshes > 0) {
+    std::printf(
+        "  remeshes         %d (labels changed during the run); the last: %d vertices, "
+        "%d tets\n",
+        remeshes, mesh.vertex_count(), mesh.tet_count());
+  }
   std::printf("  strain at the last FEM step (tick %.0f), volume-weighted per label:\n",
               steps.back());
   for (const auto& [label, s] : engine::fem::mean_strain_by_label(mesh, last)) {
@@ -153,8 +163,15 @@ void run_info(const InfoFlags& f) {
       if (haptics::has_mesh_group(f.path)) {
         print_mesh(f.path);
         const auto& names = probe.datasets;
-        if (std::find(names.begin(), names.end(), "/fem/displacement_mm") != names.end()) {
-          print_fem_strain(f.path);
+        const auto has = [&](const std::string& name) {
+          return std::find(names.begin(), names.end(), name) != names.end();
+        };
+        if (has("/fem/displacement_mm")) {
+          int remeshes = 0;
+          while (has("/fem/remesh_" + std::to_string(remeshes + 1) + "/displacement_mm")) {
+            ++remeshes;
+          }
+          print_fem_strain(f.path, remeshes);
         }
       }
     } else if (haptics::has_mesh_group(f.path)) {

@@ -299,10 +299,14 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
       ->capture_default_str();
   cmd->add_option("--fem-rate-hz", flags->fem.fem_rate_hz, "fem, realtime: the FEM thread's rate")
       ->capture_default_str();
+  cmd->add_option("--relabel", flags->relabels,
+                  "fem: T_S:FROM=TO: from T_S s into the trace, label FROM's voxels take label "
+                  "TO and the mesh is rebuilt in the background (repeatable)")
+      ->allow_extra_args(false);
   for (const char* name :
        {"--labels", "--seed", "--seed-tolerance", "--spacing-mm", "--boundary-levels",
         "--interaction", "--fem-solver", "--coupling-n-per-mm", "--candidate-margin-mm",
-        "--fem-every-ticks", "--fem-rate-hz"}) {
+        "--fem-every-ticks", "--fem-rate-hz", "--relabel"}) {
     flags->fem_only_options.push_back(cmd->get_option(name));
   }
   cmd->add_flag("--plastic", flags->plastic,

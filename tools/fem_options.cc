@@ -66,9 +66,8 @@ std::vector<InputPath> fem_inputs(const FemCliOptions& options) {
   return inputs;
 }
 
-engine::proxy::ProxyMesh build_proxy_from_cli(
-    const std::string& volume_spec, const FemCliOptions& options,
-    const std::optional<engine::fem::Region>& tool_region) {
+ProxyInputs proxy_inputs_from_cli(const std::string& volume_spec, const FemCliOptions& options,
+                                  const std::optional<engine::fem::Region>& tool_region) {
   if (options.materials.empty()) {
     throw InputError("--materials", "the proxy model needs a materials file");
   }
@@ -87,12 +86,19 @@ engine::proxy::ProxyMesh build_proxy_from_cli(
   for (const auto& seed : seeds_from_picks(intensity, volume_spec, options.pick, picks)) {
     source.seeds.push_back(seed);
   }
-  const engine::labels::LabelMap labels = engine::proxy::proxy_labels(intensity, materials, source);
+  engine::labels::LabelMap labels = engine::proxy::proxy_labels(intensity, materials, source);
   engine::proxy::ProxyMeshOptions mesh_options;
   mesh_options.coarse_spacing_mm = options.spacing_mm;
   mesh_options.boundary_levels = options.boundary_levels;
   mesh_options.tool_region = tool_region;
-  return engine::proxy::build_proxy_mesh(labels, materials, mesh_options);
+  return ProxyInputs{materials, std::move(labels), mesh_options};
+}
+
+engine::proxy::ProxyMesh build_proxy_from_cli(
+    const std::string& volume_spec, const FemCliOptions& options,
+    const std::optional<engine::fem::Region>& tool_region) {
+  const ProxyInputs inputs = proxy_inputs_from_cli(volume_spec, options, tool_region);
+  return engine::proxy::build_proxy_mesh(inputs.labels, inputs.materials, inputs.mesh);
 }
 
 }  // namespace hapvox::cli

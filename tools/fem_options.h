@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/labels/label_map.h"
+#include "engine/labels/materials.h"
 #include "engine/proxy/proxy_mesh.h"
 #include "tools/cli.h"
 #include "tools/pick_options.h"
@@ -31,6 +33,18 @@ void add_fem_options(CLI::App& app, FemCliOptions& options);
 
 /// The files the options read (materials, label volume), for check_outputs_spare_inputs.
 std::vector<InputPath> fem_inputs(const FemCliOptions& options);
+
+/// What a proxy mesh is built from: the materials, the labels and the mesh options.
+struct ProxyInputs {
+  engine::labels::Materials materials;
+  engine::labels::LabelMap labels;
+  engine::proxy::ProxyMeshOptions mesh;
+};
+
+/// Reads the materials and makes the labels of `volume_spec` (a volume file or generator,
+/// read unmapped) as build_proxy_from_cli does, without meshing them.
+ProxyInputs proxy_inputs_from_cli(const std::string& volume_spec, const FemCliOptions& options,
+                                  const std::optional<engine::fem::Region>& tool_region);
 
 /// The proxy mesh of `volume_spec` (a volume file or generator, read unmapped): reads the
 /// materials, makes the labels and builds the mesh. Throws InputError naming the file or

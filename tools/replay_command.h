@@ -44,6 +44,7 @@ struct ReplayFlags {
   haptics::FemOptions fem;
   std::string fem_interaction = "press";
   std::string fem_solver = "linear";
+  std::vector<std::string> relabels;  // --relabel T_S:FROM=TO (tools/relabel.h)
   // The options only --model fem reads (owned by the command's CLI::App): refused with
   // --model voxel when given, rather than silently ignored.
   std::vector<const CLI::Option*> fem_only_options;

@@ -12,6 +12,7 @@
 #include "engine/errors.h"
 #include "haptics/fem_model.h"
 #include "haptics/mesh_file.h"
+#include "tools/relabel.h"
 #include "tools/replay_command.h"
 
 namespace hapvox::cli {
@@ -57,6 +58,8 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   }
   if (f.fem_mesh.materials.empty()) throw InputError("--materials", "--model fem needs one");
   const haptics::FemOptions options = fem_options(f);
+  std::vector<Relabel> relabels;
+  for (const std::string& text : f.relabels) relabels.push_back(parse_relabel(text));
   const haptics::TraceColumns columns = f.trace.columns();
   const engine::IntensityMapping mapping = f.mapping.resolve();
   check_loop_flags(f);
@@ -75,13 +78,18 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   resample_options.max_gap_s = f.trace.max_gap_s;
   const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
   if (device.tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
-  const haptics::FemModel model(
-      build_proxy_from_cli(f.volume, f.fem_mesh, tool_region(device, options.tool_radius_mm)),
-      options);
+  const ProxyInputs proxy_inputs =
+      proxy_inputs_from_cli(f.volume, f.fem_mesh, tool_region(device, options.tool_radius_mm));
+  std::vector<haptics::LabelChange> changes =
+      label_changes(relabels, proxy_inputs, device.tick_count(), device.rate_hz());
+  const haptics::FemModel model(engine::proxy::build_proxy_mesh(
+                                    proxy_inputs.labels, proxy_inputs.materials, proxy_inputs.mesh),
+                                options);
   // The stages (haptics/fem_model.h); the loops see only their seams.
   auto handoff = std::make_unique<haptics::FemHandoff>();
   haptics::FemForceStage force(model, *handoff);
   haptics::FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
+  fem.set_label_changes(std::move(changes));
 
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device);
@@ -110,13 +118,21 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
     throw;
   }
   session.close();
-  std::vector<double> times_s;
+  // One series per mesh: the run's, then each remesh's (fem/remesh_k/, as write_session).
+  std::vector<haptics::XdmfSeries> series(fem.remeshes().size() + 1);
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const haptics::FemModel& mesh_model = k == 0 ? model : *fem.remeshes()[k - 1]->model;
+    const std::string group = k == 0 ? "" : "/fem/remesh_" + std::to_string(k);
+    series[k].mesh_group = group + "/mesh";
+    series[k].vertex_count = mesh_model.mesh().vertex_count();
+    series[k].tet_count = mesh_model.mesh().tet_count();
+    series[k].displacement_dataset = (k == 0 ? std::string("/fem") : group) + "/displacement_mm";
+  }
   for (const haptics::FemFrame& frame : fem.frames()) {
-    times_s.push_back(device.time_s(static_cast<std::size_t>(frame.tick)));
+    series[frame.mesh].times_s.push_back(device.time_s(static_cast<std::size_t>(frame.tick)));
   }
   haptics::write_xdmf_time_series(xdmf, std::filesystem::path(f.output).filename().string(),
-                                  model.mesh().vertex_count(), model.mesh().tet_count(), times_s,
-                                  "/fem/displacement_mm");
+                                  series);
 
   std::printf("replayed %s on %s (proxy FEM, %s %s) -> %s\n", f.trace_path.c_str(),
               f.volume.c_str(), haptics::fem_solver_name(options.solver),
@@ -134,6 +150,20 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                          : ("every " + std::to_string(options.fem_every_ticks) + " ticks").c_str(),
               fem.captured_vertices().size());
   if (f.realtime) print_stats_line("fem steps", timing.relax_slice);
+  for (const auto& remesh : fem.remeshes()) {
+    const engine::fem::ConformingMeshReport& r = remesh->model->proxy().report;
+    std::printf(
+        "  remesh           %s at %.3f s: %d vertices, %d tets, built in %.0f ms, "
+        "taken over at %.3f s\n",
+        remesh->description.c_str(),
+        device.time_s(static_cast<std::size_t>(remesh->change_tick)) - device.time_s(0),
+        r.vertex_count, r.tet_count, 1e3 * remesh->build_s,
+        device.time_s(static_cast<std::size_t>(remesh->taken_tick)) - device.time_s(0));
+  }
+  if (fem.label_changes_not_taken() > 0) {
+    std::printf("  remesh           %zu label change(s) not taken over: the run ended first\n",
+                fem.label_changes_not_taken());
+  }
   std::printf("  paraview         %s (node displacements over time)\n", xdmf.c_str());
   print_run_footer(s);
   return ReplayResult{s, timing, haptics::SculptSummary{}};

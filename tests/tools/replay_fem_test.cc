@@ -97,6 +97,54 @@ TEST(ReplayFemCli, AGrabWritesTheMeshTheDisplacementsAndAnXdmfAndIsBitReproducib
   EXPECT_NE(info.out.find("fem"), std::string::npos) << info.out;
 }
 
+TEST(ReplayFemCli, ARelabelRebuildsTheMeshMidRunAndTheSessionAndXdmfHoldBothMeshes) {
+  const std::string dir = scratch_dir();
+  const std::string trace = write_pull_trace(dir, 2.0);
+  const std::string a = dir + "/relabel.h5";
+  // At 0.1 s the blue sphere (1) becomes background (0): its boundary, where the mesh was
+  // refined, is gone, so the new mesh has other vertices.
+  const auto r = run_hapvox(fem_args(trace, a) + " --relabel 0.1:1=0");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_EQ(haptics::read_session_column(a, "fem/remesh_change_tick"), std::vector<double>{100});
+  // Taken over by the first FEM step at or after tick 100 (one every 10 ticks: tick 109).
+  EXPECT_EQ(haptics::read_session_column(a, "fem/remesh_taken_tick"), std::vector<double>{109});
+  const std::size_t v0 = haptics::read_session_column(a, "mesh/rest_mm").size() / 3;
+  const std::size_t v1 = haptics::read_session_column(a, "fem/remesh_1/mesh/rest_mm").size() / 3;
+  EXPECT_LT(v1, v0);  // no refinement left around the blue sphere
+  const std::vector<double> ticks0 = haptics::read_session_column(a, "fem/step_tick");
+  const std::vector<double> ticks1 = haptics::read_session_column(a, "fem/remesh_1/step_tick");
+  ASSERT_EQ(ticks0.size() + ticks1.size(), 31u);  // every step, on one mesh or the other
+  EXPECT_EQ(ticks0.back(), 99.0);
+  EXPECT_EQ(ticks1.front(), 109.0);
+  EXPECT_EQ(haptics::read_session_column(a, "fem/remesh_1/displacement_mm").size(),
+            ticks1.size() * v1 * 3);
+  // The pull goes on through the rebuild: the force keeps pulling back, with no jump at the
+  // step that took the new mesh over beyond a tick's change on either side of it.
+  const std::vector<double> f = haptics::read_session_column(a, "force_n");
+  const auto fx = [&](int tick) { return f[3 * tick]; };
+  EXPECT_LT(fx(200), fx(100));
+  const double step = std::abs(fx(110) - fx(109));
+  EXPECT_LE(step, 0.05 * std::abs(fx(200))) << fx(108) << " " << fx(109) << " " << fx(110);
+  // ParaView's time series: 31 grids, the later ones on the new mesh.
+  std::ifstream xdmf(dir + "/relabel.xdmf");
+  const std::string text((std::istreambuf_iterator<char>(xdmf)), std::istreambuf_iterator<char>());
+  std::size_t grids = 0;
+  for (std::size_t at = text.find("<Grid Name=\"step "); at != std::string::npos;
+       at = text.find("<Grid Name=\"step ", at + 1)) {
+    ++grids;
+  }
+  EXPECT_EQ(grids, 31u);
+  EXPECT_NE(text.find("relabel.h5:/fem/remesh_1/mesh/tets"), std::string::npos);
+  EXPECT_NE(text.find("relabel.h5:/fem/remesh_1/displacement_mm"), std::string::npos);
+  const auto info = run_hapvox("info " + a);
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("remeshes         1 (labels changed during the run); the last: " +
+                          std::to_string(v1) + " vertices"),
+            std::string::npos)
+      << info.out;
+  EXPECT_NE(info.out.find("strain at the last FEM step (tick 299)"), std::string::npos) << info.out;
+}
+
 // check-timing --model fem: the realtime loop with the FEM thread beside the force thread
 // (named for the serial and ThreadSanitizer selections, "CheckTiming"). The budget is
 // relaxed: a loaded CI machine must not fail it; the timing itself is measured by hand
@@ -149,6 +197,28 @@ TEST(ReplayFemCli, BadInputIsOneLineAndExitTwo) {
                       "--interaction: unknown interaction 'poke' (press or grab)");
   expect_replay_error(dir, base + " --model fem --materials " + toml + " --coupling-n-per-mm 0",
                       "--coupling-n-per-mm: must be positive");
+  // Label changes: checked before the run starts.
+  const std::string fem = base + " --model fem --materials " + toml + " --boundary-levels 1";
+  expect_replay_error(dir, base + " --relabel 0.1:1=0", "--relabel: needs --model fem");
+  expect_replay_error(dir, fem + " --relabel 0.1:1",
+                      "--relabel: no ':' or '=' in '0.1:1' (expected T_S:FROM=TO, e.g. 0.5:4=2)");
+  expect_replay_error(dir, fem + " --relabel -1:1=0",
+                      "--relabel: the time must be a number of seconds >= 0 in '-1:1=0' "
+                      "(expected T_S:FROM=TO, e.g. 0.5:4=2)");
+  expect_replay_error(dir, fem + " --relabel 0.1:1=1",
+                      "--relabel: FROM and TO are the same label in '0.1:1=1' (expected "
+                      "T_S:FROM=TO, e.g. 0.5:4=2)");
+  expect_replay_error(dir, fem + " --relabel 5:1=0",
+                      "--relabel: 5 s is past the trace's end (0.301 s)");
+  expect_replay_error(dir, fem + " --relabel 0.1:9=0",
+                      "--relabel: label 9 is not in the labels at 0.1 s (they hold 0, 1, 2, 3, 4)");
+  // The second change finds label 1 gone: the first made it 0.
+  expect_replay_error(dir, fem + " --relabel 0.2:1=3 --relabel 0.1:1=0",
+                      "--relabel: label 1 is not in the labels at 0.2 s (they hold 0, 2, 3, 4)");
+  const auto no_material = run_hapvox(fem + " --relabel 0.1:1=7");
+  EXPECT_EQ(no_material.exit_code, 2);
+  EXPECT_EQ(no_material.err.rfind("hapvox: error: " + toml + ": label 7 has no material (", 0), 0u)
+      << no_material.err;
   // A grab far outside the mesh: nothing to capture.
   const std::string far = dir + "/far.csv";
   std::ofstream(far) << "t,x,y,z\n0,100,100,100\n0.01,101,100,100\n";
