@@ -102,9 +102,7 @@ std::vector<engine::labels::Seed> seeds_from_picks(const engine::RawVolume& inte
   const std::vector<double> view = parse_view(options.view);
   const bool is_file = std::filesystem::exists(volume_spec);
   const render::TransferFunction transfer =
-      render::TransferFunction::from_spec(options.transfer != "auto" ? options.transfer
-                                          : is_file                  ? "ct-bone"
-                                                                     : "clay");
+      render::TransferFunction::from_spec(transfer_spec_for(options.transfer, volume_spec));
   // Density as `hapvox render` maps it by default: a generator's intensities are densities,
   // a file's are thresholded at Otsu's value.
   const double otsu = is_file ? engine::otsu_threshold(intensity) : 0.0;

@@ -28,6 +28,11 @@ void parse_size(const std::string& text, const std::string& flag, int& width, in
   height = static_cast<int>(h);
 }
 
+std::string transfer_spec_for(const std::string& transfer, const std::string& volume_spec) {
+  if (transfer != "auto") return transfer;
+  return fs::exists(volume_spec) ? "ct-bone" : "clay";
+}
+
 void RenderFlags::add_to(CLI::App& app, const std::string& prefix) {
   const std::string p = "--" + prefix;
   app.add_option(p + "transfer", transfer,
@@ -82,9 +87,7 @@ RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume
   }
   s.mesh.support_mm = f.support_mm;
   s.mesh.voxel_mm = field.voxel_size_mm().minCoeff();
-  setup.transfer_spec = f.transfer != "auto"      ? f.transfer
-                        : fs::exists(volume_spec) ? "ct-bone"
-                                                  : "clay";
+  setup.transfer_spec = transfer_spec_for(f.transfer, volume_spec);
   render::TransferFunction::from_spec(setup.transfer_spec);  // validated now, loaded later
   setup.azimuth_deg = f.azimuth_deg;
   setup.elevation_deg = f.elevation_deg;

@@ -23,6 +23,10 @@ inline constexpr const char* kFrameFileNames = "frame_[0-9]{4,}\\.png";
 /// "N" or "WxH" (16 to 8192 pixels each) into width and height; InputError(flag, ...).
 void parse_size(const std::string& text, const std::string& flag, int& width, int& height);
 
+/// The transfer function a `--transfer` value names: "auto" is ct-bone for a volume file and
+/// clay for a generator (what `hapvox render` and `--pick` draw with by default).
+std::string transfer_spec_for(const std::string& transfer, const std::string& volume_spec);
+
 struct RenderFlags {
   std::string transfer = "auto";
   std::string size = "512";

@@ -13,6 +13,7 @@
 
 #include "alloc_counter.h"
 #include "engine/volume_io.h"
+#include "fem_fixtures.h"
 #include "haptics/clay_scene.h"
 #include "haptics/fem_model.h"
 #include "haptics/voxel_model.h"
@@ -289,30 +290,14 @@ TEST(Realtime, ForceLoopDoesNotAllocateAfterStart) {
 // The proxy-FEM force stage (press LCP and grab solve on the FEM thread's snapshots) on the
 // realtime force thread, with the FEM thread publishing snapshots beside it.
 std::uint64_t fem_force_thread_allocations(FemInteraction interaction, double& peak_force_n) {
-  engine::proxy::ProxyMesh proxy;  // a 12 x 12 x 8 mm block of 2 mm cells, bottom fixed
-  proxy.mesh = engine::fem::regular_lattice({7, 7, 5}, 2.0, Vec3d::Zero(), 1);
-  proxy.materials.assign(proxy.mesh.tet_count(), {1e5, 0.3});
-  for (int v = 0; v < proxy.mesh.vertex_count(); ++v) {
-    proxy.vertex_classes.push_back(proxy.mesh.rest_mm(2, v) == 0.0
-                                       ? engine::fem::VertexClass::kFixed
-                                       : engine::fem::VertexClass::kFree);
-  }
-  FemOptions options;
-  options.interaction = interaction;
-  options.tool_radius_mm = interaction == FemInteraction::kGrab ? 2.1 : 4.0;
-  options.candidate_margin_mm = 1.0;
-  const FemModel model(std::move(proxy), options);
+  // The 12 x 12 x 8 mm block of 2 mm cells, bottom fixed, of the FEM stages' tests.
+  const FemModel model(fem_fixtures::block(), fem_fixtures::options(interaction, 10));
   // Press: a 4 mm sphere from 0.5 mm above the top face to 1 mm into it; grab: the top
   // centre pulled 1 mm up. 0.6 s at 1 kHz.
-  ResampledTrace trace;
-  for (std::size_t k = 0; k < 600; ++k) {
+  const TraceDevice device = fem_fixtures::device_along(600, [interaction](std::size_t k) {
     const double s = static_cast<double>(k) / 599.0;
-    trace.time_s.push_back(static_cast<double>(k) / trace.rate_hz);
-    trace.position_mm.push_back(interaction == FemInteraction::kGrab ? Vec3d(6, 6, 8 + s)
-                                                                     : Vec3d(6, 6, 12.5 - 1.5 * s));
-    trace.holding.push_back(0);
-  }
-  const TraceDevice device(std::move(trace), DeviceTransform{});
+    return interaction == FemInteraction::kGrab ? Vec3d(6, 6, 8 + s) : Vec3d(6, 6, 12.5 - 1.5 * s);
+  });
   auto handoff = std::make_unique<FemHandoff>();
   FemForceStage force(model, *handoff);
   FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
