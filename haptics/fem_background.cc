@@ -229,12 +229,17 @@ void FemBackgroundStage::make_snapshot(const Vec3d& proxy_mm, const Eigen::Vecto
   }
   out.grabbing = o.interaction == FemInteraction::kGrab && n > 0;
   if (out.grabbing) {
-    grab_w_inverse_ = symmetric.llt().solve(Eigen::MatrixXd::Identity(3 * n, 3 * n));
-    grab_w_inverse_ = 0.5 * (grab_w_inverse_ + grab_w_inverse_.transpose()).eval();
-    out.grab_stiffness_n_per_mm.setZero();
-    for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < n; ++j) {
-        out.grab_stiffness_n_per_mm += grab_w_inverse_.block<3, 3>(3 * i, 3 * j);
+    if (same_set) {
+      // W is the last step's, bit for bit, and so are W^-1 and K_g.
+      out.grab_stiffness_n_per_mm = current_.grab_stiffness_n_per_mm;
+    } else {
+      grab_w_inverse_ = symmetric.llt().solve(Eigen::MatrixXd::Identity(3 * n, 3 * n));
+      grab_w_inverse_ = 0.5 * (grab_w_inverse_ + grab_w_inverse_.transpose()).eval();
+      out.grab_stiffness_n_per_mm.setZero();
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+          out.grab_stiffness_n_per_mm += grab_w_inverse_.block<3, 3>(3 * i, 3 * j);
+        }
       }
     }
     if (steps_ == 0) out.anchor_mm = proxy_mm;
