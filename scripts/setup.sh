@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libopengl-dev libgl-dev libpng-dev
   python3-h5py python3-numpy python3-matplotlib
+  tetgen  # a program the mesh comparison runs (AGPL-3): never linked (docs/licences.md)
 )
 
 missing=()

@@ -7,9 +7,11 @@
 #include <filesystem>
 
 #include "engine/errors.h"
+#include "engine/proxy/tetgen_files.h"
 #include "haptics/mesh_file.h"
 #include "tools/cli.h"
 #include "tools/fem_options.h"
+#include "tools/tetgen_compare.h"
 
 namespace hapvox::cli {
 namespace {
@@ -18,6 +20,8 @@ struct MeshFlags {
   std::string volume;
   std::string output;
   FemCliOptions fem;
+  std::string tetgen_out;  // PREFIX: .node/.ele of the mesh and .smesh of its surfaces
+  std::string tetgen;      // the TetGen program to compare with ("" for none)
 };
 
 void print_report(const MeshFlags& f, const engine::proxy::ProxyMesh& proxy) {
@@ -46,10 +50,49 @@ void run_mesh(const MeshFlags& f) {
   check_output_path(f.output, "-o");
   std::vector<InputPath> inputs = volume_inputs(f.volume);
   for (InputPath& input : fem_inputs(f.fem)) inputs.push_back(std::move(input));
-  check_outputs_spare_inputs({{f.output, "-o", ""}, {xdmf, "-o's XDMF file", ""}}, inputs);
+  if (!f.tetgen.empty() && f.tetgen_out.empty()) {
+    throw InputError("--tetgen", "needs --tetgen-out PREFIX (where TetGen's files go)");
+  }
+  if (!f.tetgen.empty()) check_tetgen_program(f.tetgen);
+  std::vector<OutputPath> outputs{{f.output, "-o", ""}, {xdmf, "-o's XDMF file", ""}};
+  if (!f.tetgen_out.empty()) {
+    for (const char* ext :
+         {".node", ".ele", ".smesh", ".1.node", ".1.ele", ".1.smesh", ".tetgen.log"}) {
+      outputs.push_back({f.tetgen_out + ext, "--tetgen-out", ""});
+    }
+  }
+  check_outputs_spare_inputs(outputs, inputs);
   const engine::proxy::ProxyMesh proxy = build_proxy_from_cli(f.volume, f.fem);
   haptics::write_mesh_file(f.output, proxy);
   print_report(f, proxy);
+  if (!f.tetgen_out.empty()) {
+    engine::proxy::write_tetgen_mesh(f.tetgen_out, proxy.mesh);
+    const int facets = engine::proxy::write_tetgen_surface(f.tetgen_out, proxy.mesh);
+    std::printf(
+        "wrote %s.node and %s.ele (the mesh, label as region attribute) and %s.smesh "
+        "(%d facets: its surface and label boundaries; tetgen -pY meshes it)\n",
+        f.tetgen_out.c_str(), f.tetgen_out.c_str(), f.tetgen_out.c_str(), facets);
+  }
+  if (f.tetgen.empty()) return;
+  const TetgenMesh tetgen = mesh_with_tetgen(proxy, f.tetgen, f.tetgen_out);
+  const engine::fem::ConformingMeshReport& r = proxy.report;
+  std::printf("TetGen (%s -pYqQ %s.smesh, %.3f s) beside hapvox's mesh:\n", f.tetgen.c_str(),
+              f.tetgen_out.c_str(), tetgen.seconds);
+  std::printf("  %-16s %14s %14s\n", "", "hapvox", "TetGen");
+  std::printf("  %-16s %14d %14d\n", "vertices", proxy.mesh.vertex_count(),
+              tetgen.mesh.vertex_count());
+  std::printf("  %-16s %14d %14d\n", "tets", proxy.mesh.tet_count(), tetgen.mesh.tet_count());
+  std::printf("  %-16s %14.2f %14.2f\n", "min dihedral deg", r.quality.min_dihedral_deg,
+              tetgen.quality.min_dihedral_deg);
+  std::printf("  %-16s %14.2f %14.2f\n", "max dihedral deg", r.quality.max_dihedral_deg,
+              tetgen.quality.max_dihedral_deg);
+  for (const auto& [label, volume] : r.volume_mm3_by_label) {
+    const auto other = tetgen.volume_mm3_by_label.find(label);
+    std::printf("  label %-10d %14.6g %14.6g mm^3\n", label, volume,
+                other == tetgen.volume_mm3_by_label.end() ? 0.0 : other->second);
+  }
+  std::printf("wrote %s.1.node and %s.1.ele (TetGen's mesh; its log: %s.tetgen.log)\n",
+              f.tetgen_out.c_str(), f.tetgen_out.c_str(), f.tetgen_out.c_str());
 }
 
 }  // namespace
@@ -63,6 +106,12 @@ void add_mesh_command(CLI::App& app) {
   cmd->add_option("-o,--output", flags->output, "Mesh file to write (.h5)")->required();
   add_fem_options(*cmd, flags->fem);
   cmd->get_option("--materials")->required();
+  cmd->add_option("--tetgen-out", flags->tetgen_out,
+                  "Also write PREFIX.node/.ele (the mesh) and PREFIX.smesh (its surface and "
+                  "label boundaries) in TetGen's formats, to compare with TetGen's mesh");
+  cmd->add_option("--tetgen", flags->tetgen,
+                  "Run this TetGen program (e.g. tetgen; AGPL, never linked: Debian's "
+                  "package) on --tetgen-out's surface and compare its mesh with hapvox's");
   cmd->callback([flags] { run_mesh(*flags); });
 }
 

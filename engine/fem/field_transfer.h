@@ -19,6 +19,7 @@ namespace hapvox::engine::fem {
 /// A point located in a mesh: the tet's four vertices and the point's barycentric weights
 /// (they sum to 1; all >= 0 inside the tet).
 struct TetPoint {
+  std::int32_t tet = -1;
   std::array<std::int32_t, 4> vertices{};
   std::array<double, 4> weights{};
 };

@@ -185,6 +185,46 @@ TEST(MeshCli, APickedPixelSeedsTheSphereTheImageShowsThere) {
                     "--pick-view: expected AZIMUTH,ELEVATION in degrees, got '30'");
 }
 
+// The optional comparison with TetGen (Debian's program, run, never linked): it meshes the
+// surface and label boundaries hapvox's mesh exports (-Y: kept as they are), so every label
+// keeps its volume: a wrong surface (a face left out, a label boundary missed) or a tet
+// labelled from the wrong proxy tet changes a label's volume.
+TEST(MeshCli, TetgenMeshesTheExportedLabelBoundariesAndEveryLabelKeepsItsVolume) {
+  const std::string dir = scratch_dir();
+  const auto r = run_hapvox("mesh " + std::string(kPhantom) + " --materials " +
+                            four_spheres_toml() + " --boundary-levels 1 -o " + dir +
+                            "/m.h5 --tetgen-out " + dir + "/m --tetgen tetgen");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  for (const char* file : {"m.node", "m.ele", "m.smesh", "m.1.node", "m.1.ele"}) {
+    EXPECT_TRUE(fs::exists(dir + "/" + file)) << file;
+  }
+  // "  label N   hapvox_volume   tetgen_volume mm^3", one line per label 0-4.
+  const std::regex row(R"(label (\d+)\s+([0-9.e+]+)\s+([0-9.e+]+) mm\^3)");
+  int labels = 0;
+  for (auto it = std::sregex_iterator(r.out.begin(), r.out.end(), row);
+       it != std::sregex_iterator(); ++it, ++labels) {
+    const double ours = std::stod((*it)[2]);
+    const double theirs = std::stod((*it)[3]);
+    EXPECT_GT(ours, 0.0);
+    EXPECT_NEAR(theirs, ours, 1e-5 * ours) << "label " << (*it)[1];  // 6 printed digits
+  }
+  EXPECT_EQ(labels, 5) << r.out;
+  // Without the program, or without a place for its files: one line, before any work.
+  const std::string base = "mesh " + std::string(kPhantom) + " --materials " + four_spheres_toml() +
+                           " -o " + dir + "/bad.h5";
+  const auto missing = run_hapvox(base + " --tetgen-out " + dir + "/bad --tetgen no-such-tetgen");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_EQ(missing.err,
+            "hapvox: error: --tetgen: no program 'no-such-tetgen' to run (Debian: apt install "
+            "tetgen)\n");
+  const auto no_prefix = run_hapvox(base + " --tetgen tetgen");
+  EXPECT_EQ(no_prefix.exit_code, 2);
+  EXPECT_EQ(no_prefix.err,
+            "hapvox: error: --tetgen: needs --tetgen-out PREFIX (where TetGen's files go)\n");
+  EXPECT_FALSE(fs::exists(dir + "/bad.h5"));
+  EXPECT_FALSE(fs::exists(dir + "/bad.node"));
+}
+
 TEST(MeshCli, EachBadInputIsOneLineAndExitTwo) {
   const std::string dir = scratch_dir();
   const std::string out = " -o " + dir + "/out.h5";
