@@ -1,6 +1,9 @@
 // The proxy-FEM model's background stage (haptics/fem_model.h): the FEM step, the snapshot
 // it publishes, and its lockstep and realtime schedules.
 
+#include <pthread.h>
+#include <sys/resource.h>
+
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
@@ -96,6 +99,8 @@ bool FemBackgroundStage::run_label_changes(std::int64_t tick) {
     rebuild_done_.store(false, std::memory_order_relaxed);
     // Built against the current model, which stays current until this build is taken over.
     rebuild_thread_ = std::thread([this, &change, previous = model_] {
+      pthread_setname_np(pthread_self(), "hapvox-remesh");
+      setpriority(PRIO_PROCESS, 0, 10);  // this thread only (Linux): below the FEM thread
       try {
         rebuilt_ = build_remesh(change, *previous);
       } catch (...) {
