@@ -123,8 +123,11 @@ void FemBackgroundStage::take_over(std::unique_ptr<FemRemesh> remesh, std::int64
   displacement_mm_ = engine::fem::interpolate_vector_field(remesh->from_previous, displacement_mm_);
   for (const int dof : remesh->model->fixed_dofs()) displacement_mm_(dof) = 0.0;
   if (model_->options().interaction != FemInteraction::kGrab) captured_of_.emplace_back();
-  model_ = remesh->model.get();
-  corotational_ = std::move(remesh->corotational);
+  // Owned by remeshes_ before it is current, so an exception below leaves no dangling model_.
+  remeshes_.push_back(std::move(remesh));
+  FemRemesh& taken = *remeshes_.back();
+  model_ = taken.model.get();
+  corotational_ = std::move(taken.corotational);
   if (model_->options().interaction == FemInteraction::kGrab) {
     // Captured again at rest, as at the start: the vertices a newly fixed label took are
     // let go (none left: the grab holds nothing).
@@ -136,8 +139,8 @@ void FemBackgroundStage::take_over(std::unique_ptr<FemRemesh> remesh, std::int64
   current_.count = 0;
   scratch_ = PressScratch{};
   ++next_change_;
-  remesh->taken_tick = tick;
-  remeshes_.push_back(std::move(remesh));
+  taken.taken_tick = tick;
+  taken.captured_vertices = static_cast<int>(captured_.size());
 }
 
 std::vector<VertexClass> FemBackgroundStage::vertex_classes() const {

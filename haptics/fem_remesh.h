@@ -35,7 +35,8 @@ struct LabelChange {
   std::int64_t tick = 0;    // the force tick from which it applies
   std::string description;  // for reports, e.g. "label 3 -> 1"
   /// Builds the proxy mesh of the changed labels (on the thread that rebuilds; may throw
-  /// InputError, which stops the FEM's steps and is reported at the end of the run).
+  /// InputError: lockstep stops the run with it; realtime stops the FEM's steps, the force
+  /// thread keeping the last snapshot, and reports it at the end of the run).
   std::function<engine::proxy::ProxyMesh()> build_proxy;
 };
 
@@ -48,6 +49,7 @@ struct FemRemesh {
   std::int64_t change_tick = 0;  // the tick the change was due
   std::int64_t taken_tick = 0;   // the tick of the FEM step that took it over
   double build_s = 0.0;          // wall time of the build
+  int captured_vertices = 0;     // grab: captured again on the new mesh (0: let go)
   std::string description;
 };
 

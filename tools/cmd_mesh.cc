@@ -57,7 +57,7 @@ void run_mesh(const MeshFlags& f) {
   std::vector<OutputPath> outputs{{f.output, "-o", ""}, {xdmf, "-o's XDMF file", ""}};
   if (!f.tetgen_out.empty()) {
     for (const char* ext :
-         {".node", ".ele", ".smesh", ".1.node", ".1.ele", ".1.smesh", ".tetgen.log"}) {
+         {".node", ".ele", ".smesh", ".1.node", ".1.ele", ".1.face", ".1.edge", ".tetgen.log"}) {
       outputs.push_back({f.tetgen_out + ext, "--tetgen-out", ""});
     }
   }

@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "engine/errors.h"
 
@@ -58,12 +59,14 @@ std::vector<haptics::LabelChange> label_changes(std::vector<Relabel> relabels,
   engine::labels::LabelMap labels = inputs.labels;
   const double duration_s = static_cast<double>(ticks) / rate_hz;
   for (const Relabel& r : relabels) {
-    const auto tick = static_cast<std::int64_t>(std::llround(r.time_s * rate_hz));
-    if (tick >= static_cast<std::int64_t>(ticks)) {
+    // Compared as a double first: llround of a time far past the end is out of range.
+    const double tick_d = std::round(r.time_s * rate_hz);
+    if (!(tick_d < static_cast<double>(ticks))) {
       char what[160];
       std::snprintf(what, sizeof what, "%g s is past the trace's end (%g s)", r.time_s, duration_s);
       throw InputError("--relabel", what);
     }
+    const auto tick = static_cast<std::int64_t>(tick_d);
     std::vector<engine::labels::Label>& data = labels.mutable_data();
     if (std::find(data.begin(), data.end(), r.from) == data.end()) {
       std::string present;
@@ -76,6 +79,19 @@ std::vector<haptics::LabelChange> label_changes(std::vector<Relabel> relabels,
     }
     std::replace(data.begin(), data.end(), r.from, r.to);
     engine::labels::check_labels_have_materials(labels, inputs.materials);
+    // What the rebuild would refuse, refused now: a fixed region naming a label gone, and
+    // labels that fix nothing (a free body).
+    engine::labels::resolve_fixed_regions(inputs.materials, labels);
+    if (inputs.materials.fixed_regions.empty()) {
+      const std::set<engine::labels::Label> fixed = inputs.materials.fixed_labels();
+      if (std::none_of(data.begin(), data.end(),
+                       [&](engine::labels::Label l) { return fixed.count(l) > 0; })) {
+        char at[96];
+        std::snprintf(at, sizeof at, "after the change at %g s nothing is fixed (a free body)",
+                      r.time_s);
+        throw InputError("--relabel", at);
+      }
+    }
     auto changed = std::make_shared<const engine::labels::LabelMap>(labels);
     auto materials = std::make_shared<const engine::labels::Materials>(inputs.materials);
     changes.push_back(haptics::LabelChange{

@@ -159,6 +159,15 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
         device.time_s(static_cast<std::size_t>(remesh->change_tick)) - device.time_s(0),
         r.vertex_count, r.tet_count, 1e3 * remesh->build_s,
         device.time_s(static_cast<std::size_t>(remesh->taken_tick)) - device.time_s(0));
+    if (options.interaction == haptics::FemInteraction::kGrab) {
+      if (remesh->captured_vertices > 0) {
+        std::printf("                   %d vertices grabbed on it\n", remesh->captured_vertices);
+      } else {
+        std::printf(
+            "                   the grab let go: no free vertex within reach on it "
+            "(its force went to zero at that step)\n");
+      }
+    }
   }
   if (fem.label_changes_not_taken() > 0) {
     std::printf("  remesh           %zu label change(s) not taken over: the run ended first\n",

@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <vector>
@@ -25,6 +27,12 @@ int run_program(const std::vector<std::string>& args, const std::string& log_pat
   std::vector<char*> argv;
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
+  // Checked here: posix_spawn would report a log it cannot open as the program's failure.
+  if (FILE* log = std::fopen(log_path.c_str(), "w")) {
+    std::fclose(log);
+  } else {
+    throw InputError(log_path, "cannot create file");
+  }
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 1, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
@@ -39,7 +47,9 @@ int run_program(const std::vector<std::string>& args, const std::string& log_pat
   }
   int status = 0;
   while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) throw InputError("--tetgen", "lost '" + args[0] + "'");
+    if (errno != EINTR) {
+      throw InputError("--tetgen", "lost '" + args[0] + "': " + std::strerror(errno));
+    }
   }
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }

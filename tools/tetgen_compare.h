@@ -1,5 +1,5 @@
 #pragma once
-// `hapvox mesh ... --tetgen-out PREFIX --compare-tetgen`: TetGen's mesh of the same label
+// `hapvox mesh ... --tetgen-out PREFIX --tetgen tetgen`: TetGen's mesh of the same label
 // boundaries, for comparison (issue 9: TetGen is AGPL-3, so it is never linked; its Debian
 // program is run on the files of engine/proxy/tetgen_files.h). TetGen meshes PREFIX.smesh
 // (the proxy mesh's outer surface and label boundaries, kept as they are: -Y) with its

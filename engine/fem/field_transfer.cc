@@ -107,6 +107,7 @@ std::vector<TetPoint> locate_points(const TetMesh& mesh, const Eigen::Matrix3Xd&
     if (best_min < -1e-9) {
       for (int t = 0; t < mesh.tet_count(); ++t) consider(t);
     }
+    HAPVOX_CHECK_GE(best, 0);  // a non-finite point has no tet
     located[p].tet = best;
     for (int k = 0; k < 4; ++k) located[p].vertices[k] = mesh.tets[best][k];
     located[p].weights = best_w;

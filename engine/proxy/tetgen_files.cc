@@ -151,9 +151,12 @@ fem::TetMesh read_tetgen_mesh(const std::string& prefix) {
   }
   const int attributes = tokens.size() > 2 ? node.number<int>(tokens[2], "an attribute count") : 0;
   const int markers = tokens.size() > 3 ? node.number<int>(tokens[3], "a marker count") : 0;
-  if (attributes < 0 || markers < 0 || markers > 1)
+  if (attributes < 0 || attributes > 1000 || markers < 0 || markers > 1) {
     throw node.error("bad attribute or marker count");
-  mesh.rest_mm.resize(3, points);
+  }
+  // Grown line by line: a header's count alone must not allocate (a corrupt one could ask
+  // for gigabytes).
+  std::vector<double> coordinates;
   std::int64_t base = 0;
   for (std::int64_t p = 0; p < points; ++p) {
     node.expect_line(tokens, "its last point");
@@ -166,9 +169,11 @@ fem::TetMesh read_tetgen_mesh(const std::string& prefix) {
     if (p == 0 && base != 0 && base != 1)
       throw node.error("the first point's index must be 0 or 1");
     if (index != base + p) throw node.error("points must be numbered in order");
-    for (int a = 0; a < 3; ++a)
-      mesh.rest_mm(a, p) = node.number<double>(tokens[1 + a], "a coordinate");
+    for (int a = 0; a < 3; ++a) {
+      coordinates.push_back(node.number<double>(tokens[1 + a], "a coordinate"));
+    }
   }
+  mesh.rest_mm = Eigen::Map<const Eigen::Matrix3Xd>(coordinates.data(), 3, points);
   // .ele
   const std::string ele_path = prefix + ".ele";
   TokenLines ele(ele_path);

@@ -131,15 +131,17 @@ TEST(FemRemesh, ABuildThatFailsStopsTheRunWithItsError) {
 TEST(FemRealtime, ARebuildRunsBesideTheFemThreadWhichStepsTheOldMeshUntilItIsDone) {
   const FemOptions o = options(FemInteraction::kGrab, 10);
   const FemModel model(block(), o);
-  // 1.5 s: up 1 mm over 0.2 s from the top centre, then held.
+  // 3 s: up 1 mm over 0.2 s from the top centre, then held. The build (a 300 ms sleep and a
+  // small mesh, at nice 10) has 2.6 s to finish: enough under ThreadSanitizer on a busy
+  // machine (1.4 s was not, with a compile beside it).
   const Vec3d start(6.0, 6.0, kBlockTopMm);
-  const TraceDevice device = device_along(1500, [start](std::size_t k) {
+  const TraceDevice device = device_along(3000, [start](std::size_t k) {
     return Vec3d(start + Vec3d(0.0, 0.0, std::min(1.0, static_cast<double>(k) / 200.0)));
   });
   auto handoff = std::make_unique<FemHandoff>();
   FemForceStage force(model, *handoff);
   FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
-  constexpr std::int64_t kChangeTick = 300;
+  constexpr std::int64_t kChangeTick = 100;
   constexpr auto kSlowBuild = std::chrono::milliseconds(300);  // a mesher that takes its time
   fem.set_label_changes({change_at(kChangeTick, [&] {
     std::this_thread::sleep_for(kSlowBuild);

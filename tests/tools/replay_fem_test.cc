@@ -210,6 +210,14 @@ TEST(ReplayFemCli, BadInputIsOneLineAndExitTwo) {
                       "T_S:FROM=TO, e.g. 0.5:4=2)");
   expect_replay_error(dir, fem + " --relabel 5:1=0",
                       "--relabel: 5 s is past the trace's end (0.301 s)");
+  expect_replay_error(dir, fem + " --relabel 1e300:1=0",
+                      "--relabel: 1e+300 s is past the trace's end (0.301 s)");
+  // The white sphere (4) holds the fixed region: made background, nothing is fixed.
+  const auto unfixed = run_hapvox(fem + " --relabel 0.1:4=0");
+  EXPECT_EQ(unfixed.exit_code, 2);
+  EXPECT_EQ(unfixed.err.rfind("hapvox: error: " + toml + ":", 0), 0u) << unfixed.err;
+  EXPECT_NE(unfixed.err.find("label 4"), std::string::npos) << unfixed.err;
+  EXPECT_FALSE(fs::exists(dir + "/bad.h5"));
   expect_replay_error(dir, fem + " --relabel 0.1:9=0",
                       "--relabel: label 9 is not in the labels at 0.1 s (they hold 0, 1, 2, 3, 4)");
   // The second change finds label 1 gone: the first made it 0.

@@ -121,6 +121,9 @@ TEST(TetgenFiles, AMalformedFileIsOneErrorNamingItsLine) {
   expect_error(dir + "/f", dir + "/f.ele:2: a tet with no volume");
   write(dir + "/g.node", "2 3 0 0\n0 0 0 0\n2 1 0 0\n");
   expect_error(dir + "/g", dir + "/g.node:3: points must be numbered in order");
+  // A header asking for 2^31 - 1 points allocates nothing before the points are there.
+  write(dir + "/i.node", "2147483647 3 0 0\n0 0 0 0\n");
+  expect_error(dir + "/i", dir + "/i.node: ends before its last point");
   write(dir + "/h.node", node);
   write(dir + "/h.ele", "1 4 1\n0 0 1 2 3 1.5\n");
   expect_error(dir + "/h", dir + "/h.ele:2: the region attribute must be an integer label");
