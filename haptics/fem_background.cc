@@ -422,7 +422,7 @@ void FemBackgroundStage::write_session(SessionWriter& session, double t0_s, doub
   if (!remeshes_.empty()) {
     session.write_array("fem/remesh_change_tick", change_ticks, nullptr);
     session.write_array("fem/remesh_taken_tick", taken_ticks, nullptr);
-    session.write_array("fem/remesh_build_s", build_s, {build_s.size()}, "s");
+    session.write_array("timing/fem_remesh_build_s", build_s, {build_s.size()}, "s");
   }
   session.set_attribute("fem_steps", static_cast<std::int64_t>(steps_));
   session.set_attribute("fem_remeshes", static_cast<std::int64_t>(remeshes_.size()));

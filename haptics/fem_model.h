@@ -209,7 +209,7 @@ class FemBackgroundStage final : public BackgroundStage {
   /// 3), fem/step_tick, fem/step_time_s (from the tick and `rate_hz`, starting at `t0_s`),
   /// fem/vertex_class; for the k-th remesh the same under fem/remesh_k/, with its mesh as
   /// fem/remesh_k/mesh (haptics/mesh_file.h); the remeshes' ticks and build times as
-  /// fem/remesh_change_tick, fem/remesh_taken_tick and fem/remesh_build_s.
+  /// fem/remesh_change_tick, fem/remesh_taken_tick and timing/fem_remesh_build_s.
   void write_session(SessionWriter& session, double t0_s, double rate_hz) const;
 
  private:
