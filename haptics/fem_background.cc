@@ -122,7 +122,8 @@ void FemBackgroundStage::take_over(std::unique_ptr<FemRemesh> remesh, std::int64
                   static_cast<std::size_t>(remesh->model->mesh().vertex_count()));
   displacement_mm_ = engine::fem::interpolate_vector_field(remesh->from_previous, displacement_mm_);
   for (const int dof : remesh->model->fixed_dofs()) displacement_mm_(dof) = 0.0;
-  if (model_->options().interaction != FemInteraction::kGrab) captured_of_.emplace_back();
+  captured_of_.push_back(std::move(captured_));  // a press's is empty
+  captured_.clear();
   // Owned by remeshes_ before it is current, so an exception below leaves no dangling model_.
   remeshes_.push_back(std::move(remesh));
   FemRemesh& taken = *remeshes_.back();
@@ -132,7 +133,6 @@ void FemBackgroundStage::take_over(std::unique_ptr<FemRemesh> remesh, std::int64
     // Captured again at rest, as at the start: the vertices a newly fixed label took are
     // let go (none left: the grab holds nothing).
     double nearest_mm = 0.0;
-    captured_of_.push_back(std::move(captured_));
     captured_ = capture(nearest_mm);
   }
   // The snapshot's vertices are the old mesh's: none may be taken for the new one's.
