@@ -12,8 +12,6 @@
 namespace hapvox::render {
 namespace {
 
-constexpr int kBrick = 8;
-
 const char* const kSliceVertexShader = R"(#version 330 core
 layout(location = 0) in vec3 position_mm;
 layout(location = 1) in vec3 rest_mm;
@@ -136,10 +134,6 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-std::uint8_t encode_unit(double v) {
-  return static_cast<std::uint8_t>(std::lround(std::clamp(0.5 + 0.5 * v, 0.0, 1.0) * 255.0));
-}
-
 }  // namespace
 
 struct VolumeRenderer::Gl {
@@ -170,35 +164,19 @@ struct VolumeRenderer::Gl {
 };
 
 VolumeRenderer::VolumeRenderer(const engine::DensityField& field, const TransferFunction& transfer)
-    : gl_(std::make_unique<Gl>()),
-      dims_(field.dims()),
-      voxel_mm_(field.voxel_size_mm()),
-      volume_lo_(field.world_min_mm()),
-      volume_hi_(field.world_max_mm()) {
-  HAPVOX_CHECK(dims_.minCoeff() > 0);
-  const std::size_t count = static_cast<std::size_t>(dims_.prod());
-  density_.assign(count, 0.0f);
-  texels_.assign(count * 4, 0);
-  // Leaf-wise copy of the active voxels inside [0, dims) into the dense array.
-  for (auto leaf = field.grid().tree().cbeginLeaf(); leaf; ++leaf) {
-    for (auto v = leaf->cbeginValueOn(); v; ++v) {
-      const openvdb::Coord c = v.getCoord();
-      if (c.x() < 0 || c.y() < 0 || c.z() < 0 || c.x() >= dims_.x() || c.y() >= dims_.y() ||
-          c.z() >= dims_.z()) {
-        continue;
-      }
-      density_[index(c.x(), c.y(), c.z())] = std::clamp(*v, 0.0f, 1.0f);
-    }
-  }
-  bricks_ = (dims_.array() + kBrick - 1) / kBrick;
+    : gl_(std::make_unique<Gl>()), volume_(dense_copy(field)) {
+  HAPVOX_CHECK(volume_.dims.minCoeff() > 0);
+  const Eigen::Vector3i& dims = volume_.dims;
+  texels_.assign(volume_.voxel_count() * 4, 0);
+  bricks_ = brick_counts(dims);
   dirty_.assign(static_cast<std::size_t>(bricks_.prod()), 0);
-  compute_texels(Eigen::Vector3i::Zero(), dims_);
+  compute_texels(Eigen::Vector3i::Zero(), dims);
 
   Gl& g = *gl_;
   glGenTextures(1, &g.volume_texture);
   glBindTexture(GL_TEXTURE_3D, g.volume_texture);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA8, dims_.x(), dims_.y(), dims_.z(), 0, GL_RGBA,
+  glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA8, dims.x(), dims.y(), dims.z(), 0, GL_RGBA,
                GL_UNSIGNED_BYTE, texels_.data());
   glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -267,61 +245,45 @@ VolumeRenderer::VolumeRenderer(const engine::DensityField& field, const Transfer
 VolumeRenderer::~VolumeRenderer() = default;
 
 void VolumeRenderer::compute_texels(const Eigen::Vector3i& lo, const Eigen::Vector3i& hi) {
-  // Central differences in world units (spacings may differ per axis), clamped at the
-  // volume's faces; stored as a unit direction so 8 bits suffice.
-  auto at = [&](int x, int y, int z) {
-    x = std::clamp(x, 0, dims_.x() - 1);
-    y = std::clamp(y, 0, dims_.y() - 1);
-    z = std::clamp(z, 0, dims_.z() - 1);
-    return density_[index(x, y, z)];
-  };
   for (int z = lo.z(); z < hi.z(); ++z) {
     for (int y = lo.y(); y < hi.y(); ++y) {
       for (int x = lo.x(); x < hi.x(); ++x) {
-        const float rho = density_[index(x, y, z)];
-        const Eigen::Vector3d gradient((at(x + 1, y, z) - at(x - 1, y, z)) / (2.0 * voxel_mm_.x()),
-                                       (at(x, y + 1, z) - at(x, y - 1, z)) / (2.0 * voxel_mm_.y()),
-                                       (at(x, y, z + 1) - at(x, y, z - 1)) / (2.0 * voxel_mm_.z()));
-        const double norm = gradient.norm();
-        std::uint8_t* t = &texels_[index(x, y, z) * 4];
-        if (norm > 1e-6) {
-          const Eigen::Vector3d n = gradient / norm;
-          t[0] = encode_unit(n.x()), t[1] = encode_unit(n.y()), t[2] = encode_unit(n.z());
-        } else {
-          t[0] = t[1] = t[2] = 128;  // no direction: unshaded
-        }
-        t[3] = static_cast<std::uint8_t>(std::lround(std::clamp(rho, 0.0f, 1.0f) * 255.0f));
-        if (rho > 0.0f) {
-          // The box only grows: material that left a place may still be drawn there.
-          const Eigen::Vector3d lo_mm =
-              volume_lo_ + Eigen::Vector3d(x, y, z).cwiseProduct(voxel_mm_);
-          const Eigen::Vector3d hi_mm = lo_mm + voxel_mm_;
-          if (has_visible_) {
-            visible_lo_ = visible_lo_.cwiseMin(lo_mm);
-            visible_hi_ = visible_hi_.cwiseMax(hi_mm);
-          } else {
-            visible_lo_ = lo_mm;
-            visible_hi_ = hi_mm;
-            has_visible_ = true;
-          }
-        }
+        const float rho = volume_.density[volume_.index(x, y, z)];
+        encode_texel(central_gradient(volume_, x, y, z), rho, &texels_[volume_.index(x, y, z) * 4]);
+        if (rho > 0.0f) grow_visible(x, y, z);
       }
     }
   }
 }
 
+void VolumeRenderer::grow_visible(int x, int y, int z) {
+  // The box only grows: material that left a place may still be drawn there.
+  const Eigen::Vector3d lo_mm =
+      volume_.lo_mm + Eigen::Vector3d(x, y, z).cwiseProduct(volume_.voxel_mm);
+  const Eigen::Vector3d hi_mm = lo_mm + volume_.voxel_mm;
+  if (has_visible_) {
+    visible_lo_ = visible_lo_.cwiseMin(lo_mm);
+    visible_hi_ = visible_hi_.cwiseMax(hi_mm);
+  } else {
+    visible_lo_ = lo_mm;
+    visible_hi_ = hi_mm;
+    has_visible_ = true;
+  }
+}
+
 void VolumeRenderer::set_voxel(const openvdb::Coord& ijk, float density) {
-  if (ijk.x() < 0 || ijk.y() < 0 || ijk.z() < 0 || ijk.x() >= dims_.x() || ijk.y() >= dims_.y() ||
-      ijk.z() >= dims_.z()) {
+  const Eigen::Vector3i& dims = volume_.dims;
+  if (ijk.x() < 0 || ijk.y() < 0 || ijk.z() < 0 || ijk.x() >= dims.x() || ijk.y() >= dims.y() ||
+      ijk.z() >= dims.z()) {
     return;  // outside the rendered box
   }
-  density_[index(ijk.x(), ijk.y(), ijk.z())] = std::clamp(density, 0.0f, 1.0f);
+  volume_.density[volume_.index(ijk.x(), ijk.y(), ijk.z())] = std::clamp(density, 0.0f, 1.0f);
   // The gradient of a voxel's neighbours changes too: mark every brick within one voxel.
   for (int dz = -1; dz <= 1; ++dz) {
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
-        const int bx = (ijk.x() + dx) / kBrick, by = (ijk.y() + dy) / kBrick,
-                  bz = (ijk.z() + dz) / kBrick;
+        const int bx = (ijk.x() + dx) / kBrickVoxels, by = (ijk.y() + dy) / kBrickVoxels,
+                  bz = (ijk.z() + dz) / kBrickVoxels;
         if (ijk.x() + dx < 0 || ijk.y() + dy < 0 || ijk.z() + dz < 0 || bx >= bricks_.x() ||
             by >= bricks_.y() || bz >= bricks_.z()) {
           continue;
@@ -337,19 +299,47 @@ void VolumeRenderer::set_voxel(const openvdb::Coord& ijk, float density) {
 }
 
 std::size_t VolumeRenderer::flush_changes() {
-  if (dirty_list_.empty()) return 0;
-  glBindTexture(GL_TEXTURE_3D, gl_->volume_texture);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glPixelStorei(GL_UNPACK_ROW_LENGTH, dims_.x());
-  glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, dims_.y());
   for (std::uint32_t b : dirty_list_) {
     dirty_[b] = 0;
-    const Eigen::Vector3i brick(static_cast<int>(b % bricks_.x()),
-                                static_cast<int>(b / bricks_.x() % bricks_.y()),
-                                static_cast<int>(b / (bricks_.x() * bricks_.y())));
-    const Eigen::Vector3i lo = brick * kBrick;
-    const Eigen::Vector3i hi = (lo.array() + kBrick).min(dims_.array());
+    Eigen::Vector3i lo, hi;
+    brick_voxel_box(volume_.dims, b, lo, hi);
     compute_texels(lo, hi);
+  }
+  upload_bricks(dirty_list_, "uploading changed bricks");
+  const std::size_t n = dirty_list_.size();
+  dirty_list_.clear();
+  return n;
+}
+
+std::size_t VolumeRenderer::replace_texels(const std::vector<std::uint8_t>& texels,
+                                           const std::vector<std::uint32_t>& bricks) {
+  HAPVOX_CHECK_EQ(texels.size(), texels_.size());
+  for (std::uint32_t b : bricks) {
+    Eigen::Vector3i lo, hi;
+    brick_voxel_box(volume_.dims, b, lo, hi);
+    for (int z = lo.z(); z < hi.z(); ++z) {
+      for (int y = lo.y(); y < hi.y(); ++y) {
+        for (int x = lo.x(); x < hi.x(); ++x) {
+          const std::size_t i = volume_.index(x, y, z) * 4;
+          std::copy_n(&texels[i], 4, &texels_[i]);
+          if (texels_[i + 3] > 0) grow_visible(x, y, z);
+        }
+      }
+    }
+  }
+  upload_bricks(bricks, "uploading replaced bricks");
+  return bricks.size();
+}
+
+void VolumeRenderer::upload_bricks(const std::vector<std::uint32_t>& bricks, const char* what) {
+  if (bricks.empty()) return;
+  glBindTexture(GL_TEXTURE_3D, gl_->volume_texture);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, volume_.dims.x());
+  glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, volume_.dims.y());
+  for (std::uint32_t b : bricks) {
+    Eigen::Vector3i lo, hi;
+    brick_voxel_box(volume_.dims, b, lo, hi);
     glPixelStorei(GL_UNPACK_SKIP_PIXELS, lo.x());
     glPixelStorei(GL_UNPACK_SKIP_ROWS, lo.y());
     glPixelStorei(GL_UNPACK_SKIP_IMAGES, lo.z());
@@ -360,11 +350,8 @@ std::size_t VolumeRenderer::flush_changes() {
                    GL_UNPACK_SKIP_ROWS, GL_UNPACK_SKIP_IMAGES}) {
     glPixelStorei(p, 0);
   }
-  const std::size_t n = dirty_list_.size();
-  bricks_uploaded_total_ += n;
-  dirty_list_.clear();
-  check_gl("uploading changed bricks");
-  return n;
+  bricks_uploaded_total_ += bricks.size();
+  check_gl(what);
 }
 
 void VolumeRenderer::set_transfer_function(const TransferFunction& transfer) {
@@ -416,12 +403,12 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   // Slices are cut in rest space (the FFD then moves their vertices wherever the press
   // takes them) to the visible material plus one voxel, so the cut never clips the
   // trilinear fringe at the material's faces.
-  const Eigen::Vector3d lo = visible_lo_ - voxel_mm_;
-  const Eigen::Vector3d hi = visible_hi_ + voxel_mm_;
+  const Eigen::Vector3d lo = visible_lo_ - volume_.voxel_mm;
+  const Eigen::Vector3d hi = visible_hi_ + volume_.voxel_mm;
   const Eigen::Vector3d view_dir = camera.view_direction();
   auto tm = std::chrono::steady_clock::now();
   if (has_visible_ && (hi - lo).minCoeff() > 0.0) {
-    build_slice_mesh(volume_lo_, volume_hi_, lo, hi, view_dir, tool, settings.mesh, mesh_);
+    build_slice_mesh(volume_.lo_mm, volume_.hi_mm, lo, hi, view_dir, tool, settings.mesh, mesh_);
   } else {
     mesh_.vertices.clear();
     mesh_.indices.clear();
@@ -439,9 +426,9 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 
   // Near and far planes from the volume's bounding sphere.
-  const Eigen::Vector3d centre = 0.5 * (volume_lo_ + volume_hi_);
+  const Eigen::Vector3d centre = 0.5 * (volume_.lo_mm + volume_.hi_mm);
   const double reach = tool.in_contact ? tool.displacement_mm.norm() : 0.0;
-  const double radius = 0.5 * (volume_hi_ - volume_lo_).norm() + reach + tool.radius_mm;
+  const double radius = 0.5 * (volume_.hi_mm - volume_.lo_mm).norm() + reach + tool.radius_mm;
   const double eye_distance = (camera.eye_mm() - centre).norm();
   const double near_mm = std::max(0.01 * radius, eye_distance - radius);
   const double far_mm = eye_distance + radius;
@@ -491,14 +478,14 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
   glUseProgram(g.slice_program);
   set_matrix(g.slice_program, "mvp", mvp);
-  set_vec3(g.slice_program, "volume_lo_mm", volume_lo_);
-  set_vec3(g.slice_program, "volume_size_mm", volume_hi_ - volume_lo_);
+  set_vec3(g.slice_program, "volume_lo_mm", volume_.lo_mm);
+  set_vec3(g.slice_program, "volume_size_mm", volume_.hi_mm - volume_.lo_mm);
   set_vec3(g.slice_program, "light_dir", light);
   set_vec3(g.slice_program, "half_dir", half_dir);
   set_vec3(g.slice_program, "displacement_mm",
            tool.in_contact ? tool.displacement_mm : Eigen::Vector3d::Zero());
   glUniform1f(glGetUniformLocation(g.slice_program, "alpha_exponent"),
-              static_cast<float>(mesh_.slice_spacing_mm / voxel_mm_.minCoeff()));
+              static_cast<float>(mesh_.slice_spacing_mm / volume_.voxel_mm.minCoeff()));
   glUniform1f(glGetUniformLocation(g.slice_program, "min_density"),
               std::max(0.0f, first_visible_density_));
   glUniform1i(glGetUniformLocation(g.slice_program, "volume"), 0);

@@ -18,6 +18,7 @@
 #include "render/camera.h"
 #include "render/image.h"
 #include "render/slice_mesh.h"
+#include "render/texels.h"
 #include "render/transfer_function.h"
 
 namespace hapvox::render {
@@ -53,6 +54,13 @@ class VolumeRenderer {
   /// Recomputes and uploads the bricks changed since the last call. Returns how many.
   std::size_t flush_changes();
 
+  /// Replaces the texels of `bricks` (indices x fastest over brick_counts(dims)) with those
+  /// of `texels` (RGBA8, the whole box, render/texels.h) and uploads them: the proxy mesh's
+  /// resampled volume (render/proxy_resample.h). Returns how many bricks. Voxels changed
+  /// through set_voxel afterwards are recomputed from the density as before.
+  std::size_t replace_texels(const std::vector<std::uint8_t>& texels,
+                             const std::vector<std::uint32_t>& bricks);
+
   void set_transfer_function(const TransferFunction& transfer);
 
   /// Renders one frame. Changes not yet flushed are flushed first.
@@ -62,27 +70,23 @@ class VolumeRenderer {
   /// The box of visible material (world mm), the part of the volume the slices cover.
   const Eigen::Vector3d& visible_lo_mm() const { return visible_lo_; }
   const Eigen::Vector3d& visible_hi_mm() const { return visible_hi_; }
-  const Eigen::Vector3d& volume_lo_mm() const { return volume_lo_; }
-  const Eigen::Vector3d& volume_hi_mm() const { return volume_hi_; }
+  const Eigen::Vector3d& volume_lo_mm() const { return volume_.lo_mm; }
+  const Eigen::Vector3d& volume_hi_mm() const { return volume_.hi_mm; }
   std::uint64_t bricks_uploaded() const { return bricks_uploaded_total_; }
 
  private:
   struct Gl;
   void compute_texels(const Eigen::Vector3i& lo, const Eigen::Vector3i& hi);
+  void grow_visible(int x, int y, int z);
+  void upload_bricks(const std::vector<std::uint32_t>& bricks, const char* what);
   void ensure_framebuffer(int width, int height);
-  std::size_t index(int x, int y, int z) const {
-    return (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x;
-  }
 
   std::unique_ptr<Gl> gl_;
-  Eigen::Vector3i dims_;
-  Eigen::Vector3d voxel_mm_;
-  Eigen::Vector3d volume_lo_, volume_hi_;
+  DenseVolume volume_;
   Eigen::Vector3d visible_lo_ = Eigen::Vector3d::Zero(), visible_hi_ = Eigen::Vector3d::Zero();
   bool has_visible_ = false;
   float first_visible_density_ = 0.0f;
-  std::vector<float> density_;        // dims_, x fastest
-  std::vector<std::uint8_t> texels_;  // RGBA8: encoded gradient direction, density
+  std::vector<std::uint8_t> texels_;  // RGBA8 (render/texels.h), volume_'s layout
   std::vector<std::uint8_t> dirty_;   // one flag per 8^3 brick
   std::vector<std::uint32_t> dirty_list_;
   Eigen::Vector3i bricks_;

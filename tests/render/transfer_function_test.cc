@@ -22,7 +22,8 @@ std::string error_of(const std::string& spec) {
 }
 
 TEST(TransferFunction, InterpolatesLinearlyBetweenPointsAndHoldsOutside) {
-  const TransferFunction tf({{0.25f, 0.0f, 0.0f, 0.0f, 0.0f}, {0.75f, 1.0f, 0.5f, 0.0f, 1.0f}}, "test");
+  const TransferFunction tf({{0.25f, 0.0f, 0.0f, 0.0f, 0.0f}, {0.75f, 1.0f, 0.5f, 0.0f, 1.0f}},
+                            "test");
   EXPECT_FLOAT_EQ(tf.entry(0)[3], 0.0f);
   EXPECT_FLOAT_EQ(tf.entry(255)[0], 1.0f);
   EXPECT_FLOAT_EQ(tf.entry(255)[1], 0.5f);
@@ -36,8 +37,8 @@ TEST(TransferFunction, InterpolatesLinearlyBetweenPointsAndHoldsOutside) {
 TEST(TransferFunction, PresetsExistAndShowDenseMaterial) {
   for (const std::string& name : TransferFunction::preset_names()) {
     const TransferFunction tf = TransferFunction::from_spec(name);
-    EXPECT_FLOAT_EQ(tf.entry(0)[3], 0.0f) << name;   // empty space is invisible
-    EXPECT_GT(tf.entry(255)[3], 0.8f) << name;        // normal density is nearly opaque
+    EXPECT_FLOAT_EQ(tf.entry(0)[3], 0.0f) << name;  // empty space is invisible
+    EXPECT_GT(tf.entry(255)[3], 0.8f) << name;      // normal density is nearly opaque
   }
 }
 
@@ -47,7 +48,8 @@ TEST(TransferFunction, FileRoundTripsThePresetTable) {
   const TransferFunction tf = TransferFunction::from_spec(path);
   EXPECT_NEAR(tf.entry(255)[2], 1.0f, 1e-6);
   EXPECT_NEAR(tf.entry(0)[0], 0.0f, 1e-6);
-  const TransferFunction direct({{0, 0, 0, 0, 0}, {0.5f, 0.2f, 0.4f, 0.6f, 0.1f}, {1, 1, 1, 1, 1}}, "x");
+  const TransferFunction direct({{0, 0, 0, 0, 0}, {0.5f, 0.2f, 0.4f, 0.6f, 0.1f}, {1, 1, 1, 1, 1}},
+                                "x");
   for (int i = 0; i < TransferFunction::kSize; ++i) {
     for (int c = 0; c < 4; ++c) EXPECT_FLOAT_EQ(tf.entry(i)[c], direct.entry(i)[c]);
   }
@@ -56,16 +58,19 @@ TEST(TransferFunction, FileRoundTripsThePresetTable) {
 TEST(TransferFunction, BadFilesNameTheFileLineAndProblem) {
   const std::string dir = testing::scratch_dir();
   write(dir + "/short.txt", "0 0 0 0 0\n1 1 1 1\n");
-  EXPECT_EQ(error_of(dir + "/short.txt"), dir + "/short.txt:2: expected 'density r g b a' (five numbers)");
+  EXPECT_EQ(error_of(dir + "/short.txt"),
+            dir + "/short.txt:2: expected 'density r g b a' (five numbers)");
   write(dir + "/word.txt", "0 0 0 0 0\nhello\n");
-  EXPECT_EQ(error_of(dir + "/word.txt"), dir + "/word.txt:2: expected 'density r g b a' (five numbers)");
+  EXPECT_EQ(error_of(dir + "/word.txt"),
+            dir + "/word.txt:2: expected 'density r g b a' (five numbers)");
   write(dir + "/one.txt", "0.5 1 1 1 1\n");
   EXPECT_EQ(error_of(dir + "/one.txt"), dir + "/one.txt: needs at least two control points");
   write(dir + "/order.txt", "0.5 1 1 1 1\n0.5 0 0 0 0\n");
   EXPECT_EQ(error_of(dir + "/order.txt"),
             dir + "/order.txt: control point 2: densities must increase strictly");
   write(dir + "/range.txt", "0 0 0 0 0\n1 2 0 0 1\n");
-  EXPECT_EQ(error_of(dir + "/range.txt"), dir + "/range.txt: control point 2: values must lie in [0, 1]");
+  EXPECT_EQ(error_of(dir + "/range.txt"),
+            dir + "/range.txt: control point 2: values must lie in [0, 1]");
   write(dir + "/nan.txt", "0 0 0 0 0\n1 nan 0 0 1\n");
   EXPECT_NE(error_of(dir + "/nan.txt").find(dir + "/nan.txt"), std::string::npos);
   EXPECT_EQ(error_of("no-such-preset"),

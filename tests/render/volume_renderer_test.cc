@@ -127,10 +127,9 @@ void expect_press_is_local(VolumeRenderer& renderer, const OrbitCamera& camera,
   const Image before = renderer.render(camera, resting, settings);
   const Image pressed = renderer.render(camera, tool, settings);
   const double reach = tool.radius_mm + 3.0 * tool.radius_mm + tool.displacement_mm.norm();
-  const Eigen::Vector4i near =
-      project_box(camera, settings,
-                  box_corners(tool.center_mm - Vector3d::Constant(reach),
-                              tool.center_mm + Vector3d::Constant(reach)));
+  const Eigen::Vector4i near = project_box(camera, settings,
+                                           box_corners(tool.center_mm - Vector3d::Constant(reach),
+                                                       tool.center_mm + Vector3d::Constant(reach)));
   // Where the tool presses: the image changes clearly.
   const Eigen::Vector4i at_tool =
       project_box(camera, settings,
@@ -207,9 +206,9 @@ TEST(VolumeRenderer, PlasticChangesAppearOnceRelaxedAndMatchAFreshUpload) {
   const std::uint64_t uploaded = renderer.bricks_uploaded() - bricks_before;
   EXPECT_GT(uploaded, 0u);
   EXPECT_LT(uploaded, 8u * 8u * 8u / 4u);
-  const Eigen::Vector4i dent = project_box(
-      scene.camera, scene.settings,
-      box_corners(Vector3d(27.5, 27.5, 28.0), Vector3d(35.5, 35.5, 32.0)));
+  const Eigen::Vector4i dent =
+      project_box(scene.camera, scene.settings,
+                  box_corners(Vector3d(27.5, 27.5, 28.0), Vector3d(35.5, 35.5, 32.0)));
   EXPECT_GT(mean_abs_difference(before, after, dent[0], dent[1], dent[2], dent[3]), 2.0);
   // Incremental updates give the frame a fresh upload of the sculpted volume gives.
   const engine::DensityField sculpted = mass.to_density_field();
