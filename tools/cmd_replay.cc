@@ -89,16 +89,8 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   const std::vector<std::string> warnings = replay_warnings(f.trace_path, model, device);
 
   // The render output before the session: a machine without EGL fails before any file.
-  std::unique_ptr<FrameRecorder> recorder;
-  if (!f.render_dir.empty()) {
-    if (!(f.render_fps > 0.0 && f.render_fps <= 240.0)) {
-      throw InputError("--render-fps", "must lie in (0, 240]");
-    }
-    if (f.render_every_ticks < 1) throw InputError("--render-every-ticks", "must be at least 1");
-    const RenderSetup setup = resolve_render_flags(f.render, f.volume, field, "render-");
-    recorder = std::make_unique<FrameRecorder>(field, setup, f.render_dir,
-                                               0.5 * model.options().tool.diameter_mm, f.realtime);
-  }
+  std::unique_ptr<FrameRecorder> recorder =
+      make_replay_recorder(f, field, 0.5 * model.options().tool.diameter_mm);
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device);
 
@@ -174,22 +166,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     session.write_array("timing/relax_slice_ns", timing.relax_slice_ns, "ns");
     session.write_array("timing/relax_slice_start_ns", timing.relax_slice_start_ns, "ns");
   }
-  if (recorder) {
-    session.set_attribute("render_dir", f.render_dir);
-    session.set_attribute("summary_render_frames", static_cast<std::int64_t>(recorder->frames()));
-    if (f.realtime) {
-      session.set_attribute("render_target_fps", f.render_fps);
-      session.set_attribute("summary_render_fps", timing.render_fps);
-      session.set_attribute("summary_render_frame_p50_us", timing.render_frame.p50_us);
-      session.set_attribute("summary_render_frame_p99_us", timing.render_frame.p99_us);
-      session.set_attribute("summary_render_frame_max_us", timing.render_frame.max_us);
-      session.write_array("render/frame_start_ns", timing.render.frame_start_ns, "ns");
-      session.write_array("render/frame_ns", timing.render.frame_ns, "ns");
-      session.write_array("render/frame_tick", timing.render.frame_tick, "tick");
-    } else {
-      session.set_attribute("render_every_ticks", static_cast<std::int64_t>(f.render_every_ticks));
-    }
-  }
+  if (recorder) write_render_attributes(session, f, *recorder, timing);
   if (f.plastic) {
     session.set_attribute("summary_plastic_events",
                           static_cast<std::int64_t>(sculpted.plastic_events));
@@ -233,20 +210,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                   f.sculpt_out.c_str());
     }
   }
-  if (recorder) {
-    if (f.realtime) {
-      std::printf(
-          "  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
-          "p99 %.1f ms, max %.1f ms\n",
-          recorder->frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
-          1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
-          1e-3 * timing.render_frame.max_us);
-    } else {
-      std::printf("  render           %d frames to %s, every %zu ticks, %.1f ms a frame\n",
-                  recorder->frames(), f.render_dir.c_str(), f.render_every_ticks,
-                  recorder->frame_ms_total() / std::max(1, recorder->frames()));
-    }
-  }
+  if (recorder) print_render_line(f, *recorder, timing);
   print_run_footer(s);
   print_warnings(warnings);
   return ReplayResult{s, timing, sculpted};

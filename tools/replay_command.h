@@ -3,6 +3,7 @@
 // voxel model in tools/cmd_replay.cc, the proxy FEM in tools/replay_fem.cc): the flags, the
 // result, the session attributes every run writes and the lines every run prints.
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -96,5 +97,20 @@ void print_run_report(const ReplayFlags& f, const haptics::ReplaySummary& s,
 void print_run_footer(const haptics::ReplaySummary& s);
 
 void print_stats_line(const char* label, const haptics::DurationStats& d);
+
+/// With --render-dir: checks --render-fps and --render-every-ticks and makes the recorder
+/// (on the render thread's side in realtime), before the session: a machine without EGL fails
+/// before any file. Null without --render-dir.
+std::unique_ptr<FrameRecorder> make_replay_recorder(const ReplayFlags& f,
+                                                    const engine::DensityField& field,
+                                                    double tool_radius_mm);
+
+/// render_dir, the frame count and, in realtime, the render thread's rate and frame times.
+void write_render_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
+                             const FrameRecorder& recorder, const haptics::TimingSummary& timing);
+
+/// The report's render line.
+void print_render_line(const ReplayFlags& f, const FrameRecorder& recorder,
+                       const haptics::TimingSummary& timing);
 
 }  // namespace hapvox::cli

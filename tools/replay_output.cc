@@ -189,4 +189,50 @@ void print_run_footer(const haptics::ReplaySummary& s) {
   }
 }
 
+std::unique_ptr<FrameRecorder> make_replay_recorder(const ReplayFlags& f,
+                                                    const engine::DensityField& field,
+                                                    double tool_radius_mm) {
+  if (f.render_dir.empty()) return nullptr;
+  if (!(f.render_fps > 0.0 && f.render_fps <= 240.0)) {
+    throw InputError("--render-fps", "must lie in (0, 240]");
+  }
+  if (f.render_every_ticks < 1) throw InputError("--render-every-ticks", "must be at least 1");
+  const RenderSetup setup = resolve_render_flags(f.render, f.volume, field, "render-");
+  return std::make_unique<FrameRecorder>(field, setup, f.render_dir, tool_radius_mm, f.realtime);
+}
+
+void write_render_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
+                             const FrameRecorder& recorder, const haptics::TimingSummary& timing) {
+  session.set_attribute("render_dir", f.render_dir);
+  session.set_attribute("summary_render_frames", static_cast<std::int64_t>(recorder.frames()));
+  if (f.realtime) {
+    session.set_attribute("render_target_fps", f.render_fps);
+    session.set_attribute("summary_render_fps", timing.render_fps);
+    session.set_attribute("summary_render_frame_p50_us", timing.render_frame.p50_us);
+    session.set_attribute("summary_render_frame_p99_us", timing.render_frame.p99_us);
+    session.set_attribute("summary_render_frame_max_us", timing.render_frame.max_us);
+    session.write_array("render/frame_start_ns", timing.render.frame_start_ns, "ns");
+    session.write_array("render/frame_ns", timing.render.frame_ns, "ns");
+    session.write_array("render/frame_tick", timing.render.frame_tick, "tick");
+  } else {
+    session.set_attribute("render_every_ticks", static_cast<std::int64_t>(f.render_every_ticks));
+  }
+}
+
+void print_render_line(const ReplayFlags& f, const FrameRecorder& recorder,
+                       const haptics::TimingSummary& timing) {
+  if (f.realtime) {
+    std::printf(
+        "  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
+        "p99 %.1f ms, max %.1f ms\n",
+        recorder.frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
+        1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
+        1e-3 * timing.render_frame.max_us);
+  } else {
+    std::printf("  render           %d frames to %s, every %zu ticks, %.1f ms a frame\n",
+                recorder.frames(), f.render_dir.c_str(), f.render_every_ticks,
+                recorder.frame_ms_total() / std::max(1, recorder.frames()));
+  }
+}
+
 }  // namespace hapvox::cli
