@@ -329,7 +329,7 @@ void FemBackgroundStage::run_lockstep_tick(std::size_t tick, TickRecord& row,
 }
 
 void FemBackgroundStage::run_realtime(const std::atomic<bool>& force_done, Clock::time_point start,
-                                      RenderFeed*, BackgroundTiming& timing) {
+                                      RenderFeed* feed, BackgroundTiming& timing) {
   realtime_ = true;
   const double cpu_start = thread_cpu_s();
   const auto period = std::chrono::nanoseconds(
@@ -342,6 +342,14 @@ void FemBackgroundStage::run_realtime(const std::atomic<bool>& force_done, Clock
       const auto begin = Clock::now();
       try {
         fem_step(device.center_mm, device.center_mm + device.displacement_mm, device.tick);
+        if (feed != nullptr) {  // the render thread's copy (allocates in the first few only)
+          MeshDisplacement& out = feed->mesh.write_slot();
+          out.tick = frames_.back().tick;
+          out.mesh = &model_->mesh();
+          out.mesh_index = frames_.back().mesh;
+          out.displacement_mm = frames_.back().displacement_mm;
+          feed->mesh.publish();
+        }
       } catch (...) {
         // The force thread keeps the last snapshot; finish() reports the failure.
         failure_ = std::current_exception();

@@ -33,6 +33,7 @@
 #include "haptics/fem_remesh.h"
 #include "haptics/model_stages.h"
 #include "haptics/render_feed.h"
+#include "haptics/triple_buffer.h"
 
 namespace hapvox::haptics {
 
@@ -94,35 +95,6 @@ class FemModel {
   std::unique_ptr<engine::fem::LinearFem> linear_;
   std::vector<std::int32_t> surface_vertices_;
   std::vector<std::int32_t> free_vertices_;
-};
-
-/// A wait-free single-producer single-consumer triple buffer.
-template <class T>
-class TripleBuffer {
- public:
-  /// Producer: the slot to fill before publish().
-  T& write_slot() { return slots_[write_]; }
-  /// Producer: makes the write slot the latest.
-  void publish() noexcept {
-    write_ =
-        latest_.exchange(static_cast<std::uint8_t>(write_ | kFresh), std::memory_order_acq_rel) &
-        kIndex;
-  }
-  /// Consumer: the latest published value (the one read before, when nothing is new).
-  const T& read() noexcept {
-    if (latest_.load(std::memory_order_acquire) & kFresh) {
-      read_ = latest_.exchange(read_, std::memory_order_acq_rel) & kIndex;
-    }
-    return slots_[read_];
-  }
-
- private:
-  static constexpr std::uint8_t kFresh = 4;
-  static constexpr std::uint8_t kIndex = 3;
-  std::array<T, 3> slots_{};
-  std::atomic<std::uint8_t> latest_{0};
-  std::uint8_t write_ = 1;  // producer only
-  std::uint8_t read_ = 2;   // consumer only
 };
 
 /// The hand-offs between the two stages of one run.

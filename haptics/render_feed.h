@@ -8,6 +8,8 @@
 //                                       bounded lock-free SPSC queue (atomic_queue); what
 //                                       does not fit waits in the relaxation thread's
 //                                       backlog and goes with its next slice, never lost
+//   FEM thread    -> TripleBuffer       the proxy mesh's latest node displacements (the
+//                                       render thread resamples the volume from them)
 //
 // The render thread keeps its own copy of the field (render::VolumeRenderer), so it reads
 // no OpenVDB tree another thread writes.
@@ -22,6 +24,11 @@
 #include <vector>
 
 #include "engine/relax.h"
+#include "haptics/triple_buffer.h"
+
+namespace hapvox::engine::fem {
+struct TetMesh;
+}
 
 namespace hapvox::haptics {
 
@@ -83,10 +90,19 @@ struct RenderTiming {
   std::uint64_t frames_written = 0;
 };
 
+/// The proxy-FEM model's node displacements after one FEM step.
+struct MeshDisplacement {
+  std::int64_t tick = -1;                      // -1: nothing published yet
+  const engine::fem::TetMesh* mesh = nullptr;  // lives as long as the run's stages
+  int mesh_index = 0;                          // 0: the run's first mesh; k: its k-th remesh
+  std::vector<double> displacement_mm;         // 3 per vertex of *mesh
+};
+
 struct RenderFeed {
   std::chrono::steady_clock::time_point start;  // tick 0's deadline; set before threads start
   ToolStateMailbox tool;
   VoxelPatchQueue voxels;
+  TripleBuffer<MeshDisplacement> mesh;
   /// Set once the force and relaxation threads are finished and every change is queued:
   /// the render loop drains the queue, draws a last frame and returns.
   std::atomic<bool> done{false};

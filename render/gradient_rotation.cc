@@ -13,7 +13,7 @@ namespace hapvox::render {
 namespace {
 
 Eigen::Vector3d position(const engine::fem::TetMesh& mesh, std::int32_t v,
-                         const Eigen::VectorXd& displacement_mm) {
+                         const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
   return mesh.rest_mm.col(v) + displacement_mm.segment<3>(3 * static_cast<Eigen::Index>(v));
 }
 
@@ -75,7 +75,7 @@ std::vector<std::array<std::int32_t, 2>> frame_neighbours(const engine::fem::Tet
 
 Eigen::Matrix3d vertex_rotation(const engine::fem::TetMesh& mesh,
                                 const std::array<std::int32_t, 2>& neighbours, std::int32_t vertex,
-                                const Eigen::VectorXd& displacement_mm) {
+                                const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
   if (neighbours[0] < 0) return Eigen::Matrix3d::Identity();
   const Eigen::Vector3d p = mesh.rest_mm.col(vertex);
   const Eigen::Matrix3d rest =
@@ -89,7 +89,7 @@ Eigen::Matrix3d vertex_rotation(const engine::fem::TetMesh& mesh,
 }
 
 Eigen::Matrix3d tet_inverse_transpose(const engine::fem::TetMesh& mesh, std::int32_t tet,
-                                      const Eigen::VectorXd& displacement_mm) {
+                                      const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
   const engine::fem::Tet& t = mesh.tets[static_cast<std::size_t>(tet)];
   Eigen::Matrix3d rest, deformed;
   const Eigen::Vector3d x0 = position(mesh, t[0], displacement_mm);

@@ -43,10 +43,10 @@ std::vector<std::array<std::int32_t, 2>> frame_neighbours(const engine::fem::Tet
 /// `displacement_mm` (3 per vertex).
 Eigen::Matrix3d vertex_rotation(const engine::fem::TetMesh& mesh,
                                 const std::array<std::int32_t, 2>& neighbours, std::int32_t vertex,
-                                const Eigen::VectorXd& displacement_mm);
+                                const Eigen::Ref<const Eigen::VectorXd>& displacement_mm);
 
 /// F^-T of tet `tet` under `displacement_mm`; the identity for a degenerate deformed tet.
 Eigen::Matrix3d tet_inverse_transpose(const engine::fem::TetMesh& mesh, std::int32_t tet,
-                                      const Eigen::VectorXd& displacement_mm);
+                                      const Eigen::Ref<const Eigen::VectorXd>& displacement_mm);
 
 }  // namespace hapvox::render

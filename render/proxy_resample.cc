@@ -102,7 +102,7 @@ void ProxyResampler::mark_bricks(const Eigen::Vector3d& lo_mm, const Eigen::Vect
   }
 }
 
-ResampleStats ProxyResampler::update(const Eigen::VectorXd& displacement_mm) {
+ResampleStats ProxyResampler::update(const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
   const auto t0 = std::chrono::steady_clock::now();
   const int vertices = mesh_.vertex_count();
   HAPVOX_CHECK_GT(vertices, 0);

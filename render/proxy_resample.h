@@ -49,7 +49,7 @@ class ProxyResampler {
 
   /// Resamples for `displacement_mm` (3 per vertex of the mesh). Afterwards texels() is the
   /// deformed volume and changed_bricks() the bricks that differ from the last update's.
-  ResampleStats update(const Eigen::VectorXd& displacement_mm);
+  ResampleStats update(const Eigen::Ref<const Eigen::VectorXd>& displacement_mm);
 
   /// RGBA8 texels of the whole box, the renderer's layout.
   const std::vector<std::uint8_t>& texels() const { return texels_; }

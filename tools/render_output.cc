@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "engine/check.h"
 #include "engine/errors.h"
 
 namespace hapvox::cli {
@@ -52,6 +53,10 @@ void RenderFlags::add_to(CLI::App& app, const std::string& prefix) {
       ->capture_default_str();
   app.add_option(p + "azimuth-deg", azimuth_deg, "Camera azimuth")->capture_default_str();
   app.add_option(p + "elevation-deg", elevation_deg, "Camera elevation")->capture_default_str();
+  app.add_option(p + "gradient", gradient,
+                 "--model fem: how shading turns with the proxy mesh: rotation (per-vertex "
+                 "R = N'N^T, Nakao) or inverse-transpose (each tet's F^-T)")
+      ->capture_default_str();
 }
 
 RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume_spec,
@@ -91,6 +96,7 @@ RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume
   render::TransferFunction::from_spec(setup.transfer_spec);  // validated now, loaded later
   setup.azimuth_deg = f.azimuth_deg;
   setup.elevation_deg = f.elevation_deg;
+  setup.resample.gradient = render::parse_gradient_transform(f.gradient, p + "gradient");
   return setup;
 }
 
@@ -120,6 +126,30 @@ void FrameRecorder::make_renderer() {
   context_ = std::make_unique<render::GlContext>();
   renderer_ = std::make_unique<render::VolumeRenderer>(
       field_, render::TransferFunction::from_spec(setup_.transfer_spec));
+  if (resampler_ && resamples_ > 0) {  // a renderer made after a deformation: all of it
+    const Eigen::Vector3i bricks = render::brick_counts(resampler_->dims());
+    std::vector<std::uint32_t> all(static_cast<std::size_t>(bricks.prod()));
+    for (std::size_t b = 0; b < all.size(); ++b) all[b] = static_cast<std::uint32_t>(b);
+    renderer_->replace_texels(resampler_->texels(), all);
+  }
+}
+
+void FrameRecorder::use_proxy_mesh() {
+  resampler_ =
+      std::make_unique<render::ProxyResampler>(render::dense_copy(field_), setup_.resample);
+}
+
+void FrameRecorder::deform(const engine::fem::TetMesh& mesh, int mesh_index,
+                           const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
+  HAPVOX_CHECK(resampler_ != nullptr);
+  if (mesh_index != mesh_index_) {
+    resampler_->set_mesh(mesh);
+    mesh_index_ = mesh_index;
+  }
+  const render::ResampleStats stats = resampler_->update(displacement_mm);
+  ++resamples_;
+  resample_ms_total_ += stats.ms;
+  if (renderer_) renderer_->replace_texels(resampler_->texels(), resampler_->changed_bricks());
 }
 
 FrameRecorder::~FrameRecorder() {
@@ -138,9 +168,11 @@ render::Image FrameRecorder::render_now(const haptics::RenderToolState& tool,
   render::ToolPose pose;
   if (tool.tick >= 0) {
     pose.center_mm = tool.center_mm;
-    pose.displacement_mm = tool.displacement_mm;
-    pose.in_contact = tool.in_contact;
     pose.radius_mm = tool_radius_mm_;
+    if (!resampler_) {  // the FFD's press; the proxy mesh's deformation is in the texture
+      pose.displacement_mm = tool.displacement_mm;
+      pose.in_contact = tool.in_contact;
+    }
   }
   return renderer_->render(camera, pose, settings_, stats);
 }
@@ -161,6 +193,7 @@ haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
     const auto period = std::chrono::nanoseconds(std::llround(1e9 / fps));
     auto next = Clock::now();
     haptics::VoxelPatch patch;
+    std::int64_t deformed_tick = -1;
     while (true) {
       const bool finishing = feed.done.load(std::memory_order_acquire);
       while (feed.voxels.pop(patch)) {
@@ -169,6 +202,16 @@ haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
       }
       const haptics::RenderToolState tool = feed.tool.read();
       const auto begin = Clock::now();
+      if (resampler_) {
+        const haptics::MeshDisplacement& latest = feed.mesh.read();
+        if (latest.tick >= 0 && latest.tick != deformed_tick) {
+          deform(*latest.mesh, latest.mesh_index,
+                 Eigen::Map<const Eigen::VectorXd>(
+                     latest.displacement_mm.data(),
+                     static_cast<Eigen::Index>(latest.displacement_mm.size())));
+          deformed_tick = latest.tick;
+        }
+      }
       draw(tool);
       timing.frame_start_ns.push_back(
           std::chrono::duration_cast<std::chrono::nanoseconds>(begin - feed.start).count());

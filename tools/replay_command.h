@@ -98,6 +98,9 @@ void print_run_footer(const haptics::ReplaySummary& s);
 
 void print_stats_line(const char* label, const haptics::DurationStats& d);
 
+/// The render flags' settings; InputError naming a bad one.
+RenderSetup check_render_flags(const ReplayFlags& f, const engine::DensityField& field);
+
 /// With --render-dir: checks --render-fps and --render-every-ticks and makes the recorder
 /// (on the render thread's side in realtime), before the session: a machine without EGL fails
 /// before any file. Null without --render-dir.

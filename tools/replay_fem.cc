@@ -53,9 +53,6 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   if (f.plastic)
     throw InputError("--plastic", "needs --model voxel (the FEM model does not sculpt)");
   if (!f.sculpt_out.empty()) throw InputError("--sculpt-out", "needs --model voxel");
-  if (!f.render_dir.empty()) {
-    throw InputError("--render-dir", "the proxy-FEM model does not render yet (--model voxel)");
-  }
   if (f.fem_mesh.materials.empty()) throw InputError("--materials", "--model fem needs one");
   const haptics::FemOptions options = fem_options(f);
   std::vector<Relabel> relabels;
@@ -68,7 +65,13 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   std::vector<InputPath> inputs = volume_inputs(f.volume);
   inputs.push_back({f.trace_path, "trace"});
   for (const InputPath& input : fem_inputs(f.fem_mesh)) inputs.push_back(input);
-  check_outputs_spare_inputs({{f.output, "--output", ""}, {xdmf, "--output", ""}}, inputs);
+  if (!f.render_dir.empty()) {
+    for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
+  }
+  check_outputs_spare_inputs({{f.output, "--output", ""},
+                              {xdmf, "--output", ""},
+                              {f.render_dir, "--render-dir", kFrameFileNames}},
+                             inputs);
 
   const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
   const engine::DensityField field = engine::load_volume(f.volume, mapping);
@@ -78,6 +81,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   resample_options.max_gap_s = f.trace.max_gap_s;
   const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
   if (device.tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
+  if (!f.render_dir.empty()) check_render_flags(f, field);  // before the mesh is built
   const ProxyInputs proxy_inputs =
       proxy_inputs_from_cli(f.volume, f.fem_mesh, tool_region(device, options.tool_radius_mm));
   std::vector<haptics::LabelChange> changes =
@@ -90,6 +94,18 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   haptics::FemForceStage force(model, *handoff);
   haptics::FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
   fem.set_label_changes(std::move(changes));
+  // Frames show the volume as the proxy mesh deforms it; a grab's capture sphere is not drawn
+  // (it would hide what it holds), a press's tool is.
+  std::unique_ptr<FrameRecorder> recorder = make_replay_recorder(
+      f, field,
+      options.interaction == haptics::FemInteraction::kPress ? options.tool_radius_mm : 0.0);
+  if (recorder) recorder->use_proxy_mesh();
+  // The mesh a FEM frame's displacements belong to: the run's first or a remesh's.
+  const auto mesh_of = [&](int mesh_index) -> const engine::fem::TetMesh& {
+    return mesh_index == 0
+               ? model.mesh()
+               : fem.remeshes()[static_cast<std::size_t>(mesh_index - 1)]->model->mesh();
+  };
 
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device);
@@ -98,10 +114,30 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   try {
     const haptics::ProgressFn progress = progress_bar(f, device);
     if (f.realtime) {
+      haptics::RealtimeOptions realtime = realtime_options(f);
+      if (recorder) {
+        realtime.render_loop = recorder->realtime_loop(f.render_fps);
+        realtime.scheduler.lock_future_memory = false;  // Mesa maps memory on its threads
+      }
       s = haptics::replay_realtime(force, &fem, device, f.limits, &session, progress, nullptr,
-                                   &timing, realtime_options(f));
+                                   &timing, realtime);
     } else {
-      s = haptics::replay_lockstep(force, &fem, device, f.limits, &session, progress);
+      haptics::LockstepRender render;
+      render.every_ticks = f.render_every_ticks;
+      std::int64_t deformed_tick = -1;
+      render.frame = [&](std::size_t, const haptics::RenderToolState& tool) {
+        const haptics::FemFrame& latest = fem.frames().back();
+        if (latest.tick != deformed_tick) {  // a FEM step since the last frame
+          recorder->deform(mesh_of(latest.mesh), latest.mesh,
+                           Eigen::Map<const Eigen::VectorXd>(
+                               latest.displacement_mm.data(),
+                               static_cast<Eigen::Index>(latest.displacement_mm.size())));
+          deformed_tick = latest.tick;
+        }
+        recorder->draw(tool);
+      };
+      s = haptics::replay_lockstep(force, &fem, device, f.limits, &session, progress, nullptr,
+                                   recorder ? &render : nullptr);
     }
     force.write_attributes(session);
     write_summary_attributes(session, f, s, timing);
@@ -112,6 +148,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
       session.set_attribute("summary_fem_step_p99_us", timing.relax_slice.p99_us);
     }
     fem.write_session(session, device.time_s(0), device.rate_hz());
+    if (recorder) write_render_attributes(session, f, *recorder, timing);
     haptics::write_proxy_mesh(session.file_handle(), model.proxy());
   } catch (...) {
     session.abandon();
@@ -174,6 +211,13 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                 fem.label_changes_not_taken());
   }
   std::printf("  paraview         %s (node displacements over time)\n", xdmf.c_str());
+  if (recorder) {
+    print_render_line(f, *recorder, timing);
+    std::printf("  proxy render     %d resamples of the deformed volume, %.1f ms each (%s)\n",
+                recorder->resamples(),
+                recorder->resample_ms_total() / std::max(1, recorder->resamples()),
+                render::gradient_transform_name(recorder->setup().resample.gradient));
+  }
   print_run_footer(s);
   return ReplayResult{s, timing, haptics::SculptSummary{}};
 }

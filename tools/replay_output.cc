@@ -189,15 +189,19 @@ void print_run_footer(const haptics::ReplaySummary& s) {
   }
 }
 
-std::unique_ptr<FrameRecorder> make_replay_recorder(const ReplayFlags& f,
-                                                    const engine::DensityField& field,
-                                                    double tool_radius_mm) {
-  if (f.render_dir.empty()) return nullptr;
+RenderSetup check_render_flags(const ReplayFlags& f, const engine::DensityField& field) {
   if (!(f.render_fps > 0.0 && f.render_fps <= 240.0)) {
     throw InputError("--render-fps", "must lie in (0, 240]");
   }
   if (f.render_every_ticks < 1) throw InputError("--render-every-ticks", "must be at least 1");
-  const RenderSetup setup = resolve_render_flags(f.render, f.volume, field, "render-");
+  return resolve_render_flags(f.render, f.volume, field, "render-");
+}
+
+std::unique_ptr<FrameRecorder> make_replay_recorder(const ReplayFlags& f,
+                                                    const engine::DensityField& field,
+                                                    double tool_radius_mm) {
+  if (f.render_dir.empty()) return nullptr;
+  const RenderSetup setup = check_render_flags(f, field);
   return std::make_unique<FrameRecorder>(field, setup, f.render_dir, tool_radius_mm, f.realtime);
 }
 

@@ -50,3 +50,7 @@ PY
   --start-mm 58.6,41.33,85.67 --direction 1,0,0 --travel-mm 8 --speed-mm-s 8 --hold-s 0.5
 "$hapvox" trace make press -o "$here/fig5_grab.csv" \
   --start-mm 41.33,85.67,41.33 --direction 1,0,1 --travel-mm 8 --speed-mm-s 8 --hold-s 0.5
+# Nakao et al.'s Fig. 6 on the engine CT (materials in data/engine_grab.toml, its left part
+# fixed): grab the block's right end and lift it 12 mm.
+"$hapvox" trace make press -o "$here/engine_grab.csv" \
+  --start-mm 188,118,70 --direction 0,0,1 --travel-mm 12 --speed-mm-s 40 --hold-s 0.2
