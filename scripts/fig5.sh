@@ -4,7 +4,9 @@
 # sphere grabbed 8 mm toward the blue one (traces/fig5_grab.csv), each with the paper's
 # moduli (data/four_spheres.toml) and with uniform ones (data/four_spheres_homogeneous.toml).
 # Prints each run's mean strain per sphere (`hapvox info`) and writes OUT/fig5_pull.png and
-# OUT/fig5_grab.png: the displacement on the mid-slice through the spheres involved.
+# OUT/fig5_grab.png: the displacement on the mid-slice through the spheres involved; and
+# OUT/fig5_render.png: the deformed CT itself, drawn from the proxy mesh (docs/render.md) as
+# the paper shows it: initial, pulled, grabbed, and grabbed with uniform moduli.
 # A stiff coupling (1e5 N/mm, and a force limit as high) makes the grab displacement-
 # controlled, as in the paper: the captured vertices end within ~0.01 mm of the 8 mm.
 # Usage: scripts/fig5.sh [OUT_DIR] [extra replay flags...]  (needs build/tools/hapvox)
@@ -24,7 +26,10 @@ for experiment in pull grab; do
     "$hapvox" replay "$root/traces/fig5_$experiment.csv" --volume four-spheres --model fem \
       --materials "$root/data/$materials.toml" --interaction grab --boundary-levels 1 \
       --tool-diameter-mm "${capture_diameter_mm[$experiment]}" \
-      --coupling-n-per-mm 100000 --max-force-n 100000 --ramp-in-s 0 -q -o "$session" "$@"
+      --coupling-n-per-mm 100000 --max-force-n 100000 --ramp-in-s 0 -q -o "$session" \
+      --render-dir "$out/frames_${experiment}_$materials" --render-every-ticks 1000000 \
+      --render-size 320 --render-transfer "$root/data/four_spheres.tf" \
+      --render-azimuth-deg -30 --render-elevation-deg 30 "$@"
     echo "== $experiment, $materials.toml (labels: 1 blue, 2 green, 3 red, 4 white, 0 background)"
     "$hapvox" info "$session" | sed -n '/strain at the last/,$p'
   done
@@ -37,4 +42,11 @@ spheres="$hi,$hi,$hi,$r $hi,$lo,$lo,$r $lo,$hi,$lo,$r $lo,$lo,$hi,$r"
   "$out/pull_four_spheres.h5" "$out/pull_four_spheres_homogeneous.h5" z $hi $spheres
 /usr/bin/python3 "$root/scripts/fig5_plot.py" "$out/fig5_grab.png" "Fig. 5 grab (red toward blue)" \
   "$out/grab_four_spheres.h5" "$out/grab_four_spheres_homogeneous.h5" y $hi $spheres
-echo "fig5.sh: wrote $out/fig5_pull.png and $out/fig5_grab.png"
+# Each run drew its first and last tick: frame_0000.png and frame_0001.png.
+/usr/bin/python3 "$root/scripts/fig5_panels.py" "$out/fig5_render.png" \
+  "initial=$out/frames_pull_four_spheres/frame_0000.png" \
+  "pulled=$out/frames_pull_four_spheres/frame_0001.png" \
+  "grabbed=$out/frames_grab_four_spheres/frame_0001.png" \
+  "homogeneous=$out/frames_grab_four_spheres_homogeneous/frame_0001.png" \
+  --difference grabbed homogeneous
+echo "fig5.sh: wrote $out/fig5_pull.png, $out/fig5_grab.png and $out/fig5_render.png"
