@@ -67,9 +67,32 @@ void ProxyResampler::rasterize(const Eigen::Matrix<double, 3, 4>& corners_mm, Vi
     if (!(first[a] <= static_cast<double>(dims_[a] - 1) && last[a] >= 0.0)) return;
   }
   constexpr double kInside = -1e-9;  // voxel centres on a shared face belong to both tets
+  // Scanlines along x: lambda is linear in x, lambda(x) = at_row + x * per_x, so each row's
+  // inside interval is found first (widened by a voxel against rounding) and only its voxels
+  // tested; the same voxels pass as testing the whole box would.
+  Eigen::Vector4d per_x;
+  per_x.tail<3>() = inverse.col(0) * voxel_mm_.x();
+  per_x[0] = -per_x.tail<3>().sum();
   for (int z = from.z(); z <= to.z(); ++z) {
     for (int y = from.y(); y <= to.y(); ++y) {
-      for (int x = from.x(); x <= to.x(); ++x) {
+      const Eigen::Vector3d p0 =
+          lo_mm_ + (Eigen::Vector3d(0, y, z).array() + 0.5).matrix().cwiseProduct(voxel_mm_);
+      const Eigen::Vector3d l0 = inverse * (p0 - corners_mm.col(0));
+      const Eigen::Vector4d at_row(1.0 - l0.sum(), l0.x(), l0.y(), l0.z());
+      double first_x = from.x(), last_x = to.x();
+      for (int k = 0; k < 4; ++k) {
+        if (per_x[k] > 0.0) {
+          first_x = std::max(first_x, std::floor((kInside - at_row[k]) / per_x[k]) - 1.0);
+        } else if (per_x[k] < 0.0) {
+          last_x = std::min(last_x, std::ceil((kInside - at_row[k]) / per_x[k]) + 1.0);
+        } else if (at_row[k] < kInside - 1e-9) {
+          last_x = first_x - 1.0;  // never inside on this row
+        }
+      }
+      // Both bounds lie in [from.x, to.x] once the interval is not empty (a near-zero
+      // per_x can push one far outside: cast only after this check).
+      if (!(first_x <= last_x)) continue;
+      for (int x = static_cast<int>(first_x); x <= static_cast<int>(last_x); ++x) {
         const Eigen::Vector3d p =
             lo_mm_ + (Eigen::Vector3d(x, y, z).array() + 0.5).matrix().cwiseProduct(voxel_mm_);
         const Eigen::Vector3d l = inverse * (p - corners_mm.col(0));

@@ -85,20 +85,23 @@ TEST(ReplayFemRender, AGrabbedEndMovesInTheFramesWhileTheFixedPartsPixelsDoNot) 
 // Realtime: the render thread resamples what the FEM thread published (also run under TSan).
 TEST(ReplayFemRender, RealtimeFramesShowTheFemThreadsDisplacements) {
   const std::string dir = scratch_dir();
-  const auto r = run_hapvox(
-      "replay " + source_path("traces/fig5_grab.csv") +
-      " --volume four-spheres --model fem --materials " + source_path("data/four_spheres.toml") +
-      " --interaction grab --tool-diameter-mm 30 --spacing-mm 16 --boundary-levels 0"
-      " --coupling-n-per-mm 1000 --max-force-n 10000 --ramp-in-s 0"
-      " --realtime --no-rt-priority --no-mlock -o " +
-      dir + "/s.h5 --render-dir " + dir + "/frames --render-fps 20 --render-size 64");
+  const auto r =
+      run_hapvox("replay " + source_path("traces/fig5_grab.csv") +
+                 " --volume four-spheres:dims=64,voxel_mm=2 --model fem --materials " +
+                 source_path("data/four_spheres.toml") +
+                 " --interaction grab --tool-diameter-mm 30 --spacing-mm 16 --boundary-levels 0"
+                 " --coupling-n-per-mm 1000 --max-force-n 10000 --ramp-in-s 0"
+                 " --realtime --no-rt-priority --no-mlock -o " +
+                 dir + "/s.h5 --render-dir " + dir + "/frames --render-fps 20 --render-size 64");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   int frames = 0;
   while (std::filesystem::exists(dir + "/frames/frame_" + std::string(frames < 10 ? "000" : "00") +
                                  std::to_string(frames) + ".png")) {
     ++frames;
   }
-  EXPECT_GE(frames, 3) << r.out;
+  // At least the first frame and one after the FEM moved something; how many more depends
+  // on the machine (a sanitizer build resamples ten times slower).
+  ASSERT_GE(frames, 2) << r.out;
   // The grab moved the spheres: the first frame (drawn before any FEM step could have moved
   // anything much) and the last differ.
   const render::Image first = render::read_png(dir + "/frames/frame_0000.png");
