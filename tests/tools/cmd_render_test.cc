@@ -167,6 +167,16 @@ TEST(RenderCli, BenchRenderPrintsOursBesideTheNaiveMeshWithPsnr) {
   EXPECT_NE(r.out.find("naive: 500 x 20x20, Eq. 10"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ours / naive"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("PSNR dB"), std::string::npos) << r.out;
+  // The proxy-FEM rows: a grab that moved part of the 14^3 lattice, then the frames beside
+  // the voxel model's.
+  EXPECT_NE(r.out.find("fem: resampled, 64 slices"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("fem / voxel fps"), std::string::npos) << r.out;
+  const auto moved = r.out.find(" of 13182 tets moved");
+  ASSERT_NE(moved, std::string::npos) << r.out;
+  const auto count_from = r.out.rfind(' ', moved - 1) + 1;
+  const int moved_tets = std::stoi(r.out.substr(count_from, moved - count_from));
+  EXPECT_GT(moved_tets, 0) << r.out;
+  EXPECT_LT(moved_tets, 13182) << r.out;  // the bump fades: the far tets stay put
 }
 
 // Issue 8 point 6: the bundled volume is found wherever hapvox runs from (here a fresh
