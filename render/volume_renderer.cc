@@ -41,6 +41,8 @@ uniform float alpha_exponent;
 uniform float min_density;
 uniform vec3 light_dir;
 uniform vec3 half_dir;
+uniform sampler3D shadow;
+uniform float shadow_weight;
 void main() {
   if (any(lessThan(tex, vec3(0.0))) || any(greaterThan(tex, vec3(1.0)))) discard;
   vec4 v = texture(volume, tex);
@@ -50,14 +52,16 @@ void main() {
   float alpha = 1.0 - pow(1.0 - c.a, alpha_exponent);
   vec3 g = v.rgb * 2.0 - 1.0;
   float g_len = length(g);
-  vec3 rgb = c.rgb;
+  // The light from above that reaches here (render/shadow_volume.h); exactly 1 unshadowed.
+  float lit = 1.0 - shadow_weight * (1.0 - texture(shadow, tex).r);
+  vec3 rgb = c.rgb * lit;
   if (g_len > 0.25) {
     // The FFD's inverse-transpose Jacobian turns the rest normal into the deformed one.
     vec3 n = g - grad_w * dot(displacement_mm, g) / (1.0 + dot(grad_w, displacement_mm));
     n = normalize(n);
     float diffuse = abs(dot(n, light_dir));
     float specular = pow(abs(dot(n, half_dir)), 24.0);
-    rgb = c.rgb * (0.35 + 0.65 * diffuse) + vec3(0.25 * specular);
+    rgb = c.rgb * (0.35 + 0.65 * diffuse) * lit + vec3(0.25 * specular * lit);
   }
   color = vec4(min(rgb, vec3(1.0)) * alpha, alpha);
 }
@@ -138,6 +142,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 struct VolumeRenderer::Gl {
   GLuint volume_texture = 0, transfer_texture = 0;
+  GLuint shadow_texture = 0, unlit_texture = 0;  // transmittance, and 1x1x1 "fully lit"
   GLuint slice_program = 0, tool_program = 0;
   GLuint slice_vao = 0, slice_vbo = 0, slice_ibo = 0;
   GLuint tool_vao = 0, tool_vbo = 0, tool_ibo = 0;
@@ -149,6 +154,8 @@ struct VolumeRenderer::Gl {
   ~Gl() {
     glDeleteTextures(1, &volume_texture);
     glDeleteTextures(1, &transfer_texture);
+    glDeleteTextures(1, &shadow_texture);
+    glDeleteTextures(1, &unlit_texture);
     glDeleteProgram(slice_program);
     glDeleteProgram(tool_program);
     glDeleteVertexArrays(1, &slice_vao);
@@ -185,6 +192,12 @@ VolumeRenderer::VolumeRenderer(const engine::DensityField& field, const Transfer
   }
   glGenTextures(1, &g.transfer_texture);
   set_transfer_function(transfer);
+  const std::uint8_t fully_lit = 255;
+  glGenTextures(1, &g.unlit_texture);
+  glBindTexture(GL_TEXTURE_3D, g.unlit_texture);
+  glTexImage3D(GL_TEXTURE_3D, 0, GL_R8, 1, 1, 1, 0, GL_RED, GL_UNSIGNED_BYTE, &fully_lit);
+  glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
 
   g.slice_program = link(kSliceVertexShader, kSliceFragmentShader);
   g.tool_program = link(kToolVertexShader, kToolFragmentShader);
@@ -351,11 +364,53 @@ void VolumeRenderer::upload_bricks(const std::vector<std::uint32_t>& bricks, con
     glPixelStorei(p, 0);
   }
   bricks_uploaded_total_ += bricks.size();
+  if (shadow_) shadow_->mark_bricks(bricks);
   check_gl(what);
+}
+
+void VolumeRenderer::update_shadows(int blur_voxels) {
+  Gl& g = *gl_;
+  const Eigen::Vector3i& dims = volume_.dims;
+  if (!shadow_ || shadow_->blur_voxels() != blur_voxels) {  // the first frame with shadows
+    shadow_ = std::make_unique<ShadowVolume>(dims, blur_voxels);
+    if (g.shadow_texture == 0) {
+      glGenTextures(1, &g.shadow_texture);
+      glBindTexture(GL_TEXTURE_3D, g.shadow_texture);
+      glTexImage3D(GL_TEXTURE_3D, 0, GL_R8, dims.x(), dims.y(), dims.z(), 0, GL_RED,
+                   GL_UNSIGNED_BYTE, nullptr);
+      glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+      glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) {
+        glTexParameteri(GL_TEXTURE_3D, wrap, GL_CLAMP_TO_EDGE);
+      }
+    }
+  }
+  const std::vector<std::uint32_t>& changed = shadow_->update(texels_, opacity_);
+  if (changed.empty()) return;
+  glBindTexture(GL_TEXTURE_3D, g.shadow_texture);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, dims.x());
+  glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, dims.y());
+  for (std::uint32_t b : changed) {
+    Eigen::Vector3i lo, hi;
+    brick_voxel_box(dims, b, lo, hi);
+    glPixelStorei(GL_UNPACK_SKIP_PIXELS, lo.x());
+    glPixelStorei(GL_UNPACK_SKIP_ROWS, lo.y());
+    glPixelStorei(GL_UNPACK_SKIP_IMAGES, lo.z());
+    glTexSubImage3D(GL_TEXTURE_3D, 0, lo.x(), lo.y(), lo.z(), hi.x() - lo.x(), hi.y() - lo.y(),
+                    hi.z() - lo.z(), GL_RED, GL_UNSIGNED_BYTE, shadow_->transmittance().data());
+  }
+  for (GLenum p : {GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT, GL_UNPACK_SKIP_PIXELS,
+                   GL_UNPACK_SKIP_ROWS, GL_UNPACK_SKIP_IMAGES}) {
+    glPixelStorei(p, 0);
+  }
+  check_gl("uploading the shadow volume");
 }
 
 void VolumeRenderer::set_transfer_function(const TransferFunction& transfer) {
   first_visible_density_ = transfer.first_visible_density();
+  for (int i = 0; i < TransferFunction::kSize; ++i) opacity_[i] = transfer.entry(i)[3];
+  if (shadow_) shadow_->mark_all();
   std::vector<float> table(TransferFunction::kSize * 4);
   for (int i = 0; i < TransferFunction::kSize; ++i) {
     for (int c = 0; c < 4; ++c) table[i * 4 + c] = transfer.entry(i)[c];
@@ -398,6 +453,11 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   Gl& g = *gl_;
   FrameStats frame;
   frame.bricks_uploaded = flush_changes();
+  if (settings.shadows.enabled) {
+    const auto ts = std::chrono::steady_clock::now();
+    update_shadows(settings.shadows.blur_voxels);
+    frame.shadow_ms = ms_since(ts);
+  }
 
   // Slices cover the visible material, grown by how far the FFD can move it.
   // Slices are cut in rest space (the FFD then moves their vertices wherever the press
@@ -490,10 +550,15 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
               std::max(0.0f, first_visible_density_));
   glUniform1i(glGetUniformLocation(g.slice_program, "volume"), 0);
   glUniform1i(glGetUniformLocation(g.slice_program, "transfer"), 1);
+  glUniform1i(glGetUniformLocation(g.slice_program, "shadow"), 2);
+  glUniform1f(glGetUniformLocation(g.slice_program, "shadow_weight"),
+              settings.shadows.enabled ? static_cast<float>(settings.shadows.strength) : 0.0f);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_3D, g.volume_texture);
   glActiveTexture(GL_TEXTURE1);
   glBindTexture(GL_TEXTURE_1D, g.transfer_texture);
+  glActiveTexture(GL_TEXTURE2);
+  glBindTexture(GL_TEXTURE_3D, settings.shadows.enabled ? g.shadow_texture : g.unlit_texture);
   glActiveTexture(GL_TEXTURE0);
   glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(mesh_.indices.size()), GL_UNSIGNED_INT,
                  nullptr);

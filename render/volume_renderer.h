@@ -2,7 +2,8 @@
 // Draws a density field with view-aligned, back-to-front slices of an FFD slice mesh
 // (render/slice_mesh.h) into an offscreen framebuffer: a 3D texture holds density and its
 // precomputed gradient, a 1D texture the transfer function; Blinn-Phong shading from the
-// gradient with a headlight; the tool drawn as a shaded sphere.
+// gradient with a headlight, optionally darkened by volume shadows from a light above
+// (render/shadow_volume.h); the tool drawn as a shaded sphere.
 //
 // Needs a current GlContext on the calling thread; every call must come from that thread.
 // The renderer keeps its own dense copy of the field: changes arrive as voxel values
@@ -10,6 +11,7 @@
 // recomputed and re-uploaded (flush_changes), never the whole texture.
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -17,6 +19,7 @@
 #include "engine/density_field.h"
 #include "render/camera.h"
 #include "render/image.h"
+#include "render/shadow_volume.h"
 #include "render/slice_mesh.h"
 #include "render/texels.h"
 #include "render/transfer_function.h"
@@ -26,6 +29,7 @@ namespace hapvox::render {
 struct FrameStats {
   double mesh_ms = 0.0;    // building the slice mesh on the CPU
   double upload_ms = 0.0;  // vertex buffers and changed bricks
+  double shadow_ms = 0.0;  // recomputing and uploading the shadow volume's changed columns
   double draw_ms = 0.0;    // GL draw until finished
   double read_ms = 0.0;    // reading the pixels back
   std::size_t vertices = 0;
@@ -33,10 +37,18 @@ struct FrameStats {
   std::size_t bricks_uploaded = 0;
 };
 
+/// Volume shadows from a light above the volume (render/shadow_volume.h).
+struct ShadowSettings {
+  bool enabled = false;
+  double strength = 0.6;  // the share of the shading a full shadow takes away, [0, 1]
+  int blur_voxels = 2;    // the penumbra's half-width, [0, 8]
+};
+
 struct RenderSettings {
   int width = 512;
   int height = 512;
   SliceMeshOptions mesh;
+  ShadowSettings shadows;
   bool draw_tool = true;
   float background[3] = {0.08f, 0.09f, 0.11f};
 };
@@ -80,6 +92,7 @@ class VolumeRenderer {
   void grow_visible(int x, int y, int z);
   void upload_bricks(const std::vector<std::uint32_t>& bricks, const char* what);
   void ensure_framebuffer(int width, int height);
+  void update_shadows(int blur_voxels);
 
   std::unique_ptr<Gl> gl_;
   DenseVolume volume_;
@@ -92,6 +105,8 @@ class VolumeRenderer {
   Eigen::Vector3i bricks_;
   std::uint64_t bricks_uploaded_total_ = 0;
   SliceMesh mesh_;
+  std::array<float, TransferFunction::kSize> opacity_{};  // the transfer function's, per entry
+  std::unique_ptr<ShadowVolume> shadow_;                  // made by the first shadowed frame
 };
 
 }  // namespace hapvox::render

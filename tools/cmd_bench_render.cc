@@ -195,7 +195,18 @@ void run_bench_render(const BenchRenderFlags& f) {
       resampled = resampler.update(u);
       resample_ms.push_back(resampled.ms);
     }
+    // Shadows: the whole volume on the first shadowed frame, then only the columns the
+    // resample changed.
+    render::RenderSettings shadowed;
+    shadowed.width = shadowed.height = 64;
+    shadowed.shadows.enabled = true;
+    render::FrameStats shadow_stats;
+    deformed.render(camera, render::ToolPose{}, shadowed, &shadow_stats);
+    const double shadow_full_ms = shadow_stats.shadow_ms;
     deformed.replace_texels(resampler.texels(), resampler.changed_bricks());
+    deformed.render(camera, render::ToolPose{}, shadowed, &shadow_stats);
+    std::printf("%-40s %5s %-30s shadow volume in %.1f ms whole, %.1f ms after the grab\n",
+                spec.c_str(), "", "fem: shadows", shadow_full_ms, shadow_stats.shadow_ms);
     const Eigen::Vector3i bricks = render::brick_counts(field.dims());
     std::printf(
         "%-40s %5s %-30s resampled in %.1f ms (median of 3): %zu of %d tets moved, %zu of %d "
@@ -223,6 +234,10 @@ void run_bench_render(const BenchRenderFlags& f) {
                   100.0 * row.fps / voxel->fps);
       std::fflush(stdout);
       rows.push_back(row);
+      reference.shadows.enabled = ours.shadows.enabled = true;
+      rows.push_back(measure_row(deformed, camera, grab, ours,
+                                 deformed.render(camera, grab, reference), f.frames, spec,
+                                 "fem + shadows"));
     }
   }
   std::printf(

@@ -57,6 +57,9 @@ void RenderFlags::add_to(CLI::App& app, const std::string& prefix) {
                  "--model fem: how shading turns with the proxy mesh: rotation (per-vertex "
                  "R = N'N^T, Nakao) or inverse-transpose (each tet's F^-T)")
       ->capture_default_str();
+  app.add_flag(p + "shadows", shadows,
+               "Volume shadows from a light above the volume (its +z side), soft-edged; they "
+               "move with the material");
 }
 
 RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume_spec,
@@ -97,6 +100,7 @@ RenderSetup resolve_render_flags(const RenderFlags& f, const std::string& volume
   setup.azimuth_deg = f.azimuth_deg;
   setup.elevation_deg = f.elevation_deg;
   setup.resample.gradient = render::parse_gradient_transform(f.gradient, p + "gradient");
+  s.shadows.enabled = f.shadows;
   return setup;
 }
 

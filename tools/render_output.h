@@ -19,9 +19,9 @@ namespace hapvox::cli {
 inline constexpr const char* kFrameFileNames = "frame_[0-9]{4,}\\.png";
 
 /// --transfer, --size, --slices, --tessellation, --patches, --kernel, --support-mm,
-/// --azimuth-deg, --elevation-deg, --gradient (with a prefix such as "render-" where a command has
-/// flags of its own).
-/// "N" or "WxH" (16 to 8192 pixels each) into width and height; InputError(flag, ...).
+/// --azimuth-deg, --elevation-deg, --gradient, --shadows (with a prefix such as "render-" where a
+/// command has flags of its own). "N" or "WxH" (16 to 8192 pixels each) into width and height;
+/// InputError(flag, ...).
 void parse_size(const std::string& text, const std::string& flag, int& width, int& height);
 
 /// The transfer function a `--transfer` value names: "auto" is ct-bone for a volume file and
@@ -39,6 +39,7 @@ struct RenderFlags {
   double azimuth_deg = 30.0;
   double elevation_deg = 25.0;
   std::string gradient = "rotation";  // the FEM model's shading (render/gradient_rotation.h)
+  bool shadows = false;               // volume shadows from a light above (render/shadow_volume.h)
   void add_to(CLI::App& app, const std::string& prefix = "");
 };
 

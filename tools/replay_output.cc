@@ -209,6 +209,8 @@ void write_render_attributes(haptics::SessionWriter& session, const ReplayFlags&
                              const FrameRecorder& recorder, const haptics::TimingSummary& timing) {
   session.set_attribute("render_dir", f.render_dir);
   session.set_attribute("summary_render_frames", static_cast<std::int64_t>(recorder.frames()));
+  session.set_attribute("render_shadows",
+                        static_cast<std::int64_t>(recorder.setup().settings.shadows.enabled));
   if (f.realtime) {
     session.set_attribute("render_target_fps", f.render_fps);
     session.set_attribute("summary_render_fps", timing.render_fps);
@@ -225,17 +227,18 @@ void write_render_attributes(haptics::SessionWriter& session, const ReplayFlags&
 
 void print_render_line(const ReplayFlags& f, const FrameRecorder& recorder,
                        const haptics::TimingSummary& timing) {
+  const char* shadows = recorder.setup().settings.shadows.enabled ? ", shadows" : "";
   if (f.realtime) {
     std::printf(
         "  render thread    %d frames to %s, %.1f fps (target %.0f), frame p50 %.1f ms, "
-        "p99 %.1f ms, max %.1f ms\n",
+        "p99 %.1f ms, max %.1f ms%s\n",
         recorder.frames(), f.render_dir.c_str(), timing.render_fps, f.render_fps,
         1e-3 * timing.render_frame.p50_us, 1e-3 * timing.render_frame.p99_us,
-        1e-3 * timing.render_frame.max_us);
+        1e-3 * timing.render_frame.max_us, shadows);
   } else {
-    std::printf("  render           %d frames to %s, every %zu ticks, %.1f ms a frame\n",
+    std::printf("  render           %d frames to %s, every %zu ticks, %.1f ms a frame%s\n",
                 recorder.frames(), f.render_dir.c_str(), f.render_every_ticks,
-                recorder.frame_ms_total() / std::max(1, recorder.frames()));
+                recorder.frame_ms_total() / std::max(1, recorder.frames()), shadows);
   }
 }
 

@@ -171,6 +171,8 @@ TEST(RenderCli, BenchRenderPrintsOursBesideTheNaiveMeshWithPsnr) {
   // the voxel model's.
   EXPECT_NE(r.out.find("fem: resampled, 64 slices"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("fem / voxel fps"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("fem + shadows"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("shadow volume in"), std::string::npos) << r.out;
   const auto moved = r.out.find(" of 13182 tets moved");
   ASSERT_NE(moved, std::string::npos) << r.out;
   const auto count_from = r.out.rfind(' ', moved - 1) + 1;

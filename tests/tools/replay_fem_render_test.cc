@@ -51,9 +51,10 @@ TEST(ReplayFemRender, AGrabbedEndMovesInTheFramesWhileTheFixedPartsPixelsDoNot) 
       " --ramp-in-s 0 --spacing-mm 16 --boundary-levels 0 -o " +
       dir + "/s.h5 --render-dir " + dir +
       "/frames --render-every-ticks 500 --render-size 160x120 --render-azimuth-deg -90"
-      " --render-elevation-deg 0");
+      " --render-elevation-deg 0 --render-shadows");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("render           2 frames to"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("a frame, shadows\n"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("proxy render     2 resamples"), std::string::npos) << r.out;
   const render::Image before = render::read_png(dir + "/frames/frame_0000.png");
   const render::Image after = render::read_png(dir + "/frames/frame_0001.png");
@@ -80,6 +81,10 @@ TEST(ReplayFemRender, AGrabbedEndMovesInTheFramesWhileTheFixedPartsPixelsDoNot) 
                    [](const auto& a) { return a.first == "summary_render_frames"; });
   ASSERT_NE(frames, info.attributes.end());
   EXPECT_EQ(frames->second, "2");
+  const auto shadows = std::find_if(info.attributes.begin(), info.attributes.end(),
+                                    [](const auto& a) { return a.first == "render_shadows"; });
+  ASSERT_NE(shadows, info.attributes.end());
+  EXPECT_EQ(shadows->second, "1");
 }
 
 // Realtime: the render thread resamples what the FEM thread published (also run under TSan).
