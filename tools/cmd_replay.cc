@@ -245,24 +245,7 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
                   "field) or fem (Nakao: an adaptive tet proxy mesh with FEM; needs --materials)")
       ->capture_default_str();
   add_fem_options(*cmd, flags->fem_mesh);
-  cmd->add_option("--interaction", flags->fem_interaction,
-                  "fem: press (the tool sphere pushes) or grab (the vertices within the tool "
-                  "radius of the first position follow it)")
-      ->capture_default_str();
-  cmd->add_option("--fem-solver", flags->fem_solver, "fem: linear or corotational")
-      ->capture_default_str();
-  cmd->add_option("--coupling-n-per-mm", flags->fem.coupling_n_per_mm,
-                  "fem: virtual coupling stiffness, N/mm (the rendered stiffness never exceeds "
-                  "it; passive at 1 kHz for a device damping >= k T / 2)")
-      ->capture_default_str();
-  cmd->add_option("--candidate-margin-mm", flags->fem.candidate_margin_mm,
-                  "fem press: surface vertices this close to the tool join the contact snapshot")
-      ->capture_default_str();
-  cmd->add_option("--fem-every-ticks", flags->fem.fem_every_ticks,
-                  "fem, lockstep: one FEM step every N ticks")
-      ->capture_default_str();
-  cmd->add_option("--fem-rate-hz", flags->fem.fem_rate_hz, "fem, realtime: the FEM thread's rate")
-      ->capture_default_str();
+  flags->fem_run.add_to(*cmd);
   cmd->add_option("--relabel", flags->relabels,
                   "fem: T_S:FROM=TO: from T_S s into the trace, label FROM's voxels take label "
                   "TO and the mesh is rebuilt in the background (repeatable)")

@@ -1,6 +1,7 @@
 #include "tools/fem_options.h"
 
 #include <charconv>
+#include <cmath>
 
 #include "engine/errors.h"
 #include "engine/labels/label_map.h"
@@ -8,6 +9,47 @@
 #include "engine/proxy/label_source.h"
 
 namespace hapvox::cli {
+
+void FemRunFlags::add_to(CLI::App& app, bool realtime) {
+  app.add_option("--interaction", interaction,
+                 "fem: press (the tool sphere pushes) or grab (the vertices within the tool "
+                 "radius of the first position follow it)")
+      ->capture_default_str();
+  app.add_option("--fem-solver", solver, "fem: linear or corotational")->capture_default_str();
+  app.add_option("--coupling-n-per-mm", options.coupling_n_per_mm,
+                 "fem: virtual coupling stiffness, N/mm (the rendered stiffness never exceeds "
+                 "it; passive at 1 kHz for a device damping >= k T / 2)")
+      ->capture_default_str();
+  app.add_option("--candidate-margin-mm", options.candidate_margin_mm,
+                 "fem press: surface vertices this close to the tool join the contact snapshot")
+      ->capture_default_str();
+  app.add_option("--fem-every-ticks", options.fem_every_ticks,
+                 "fem, lockstep: one FEM step every N ticks")
+      ->capture_default_str();
+  if (realtime) {
+    app.add_option("--fem-rate-hz", options.fem_rate_hz, "fem, realtime: the FEM thread's rate")
+        ->capture_default_str();
+  }
+}
+
+haptics::FemOptions FemRunFlags::resolve(double tool_diameter_mm) const {
+  haptics::FemOptions o = options;
+  o.interaction = haptics::parse_fem_interaction(interaction, "--interaction");
+  o.solver = haptics::parse_fem_solver(solver, "--fem-solver");
+  o.tool_radius_mm = 0.5 * tool_diameter_mm;
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(o.tool_radius_mm)) throw InputError("--tool-diameter-mm", "must be positive");
+  if (!positive(o.coupling_n_per_mm)) throw InputError("--coupling-n-per-mm", "must be positive");
+  if (!std::isfinite(o.candidate_margin_mm) || o.candidate_margin_mm < 0.0) {
+    throw InputError("--candidate-margin-mm", "must be zero or positive");
+  }
+  if (o.fem_every_ticks == 0) throw InputError("--fem-every-ticks", "must be at least 1");
+  if (!(o.fem_rate_hz >= 1.0 && o.fem_rate_hz <= 1000.0)) {
+    throw InputError("--fem-rate-hz", "must lie in [1, 1000]");
+  }
+  return o;
+}
+
 namespace {
 
 // "X,Y,Z[:LABEL]"; a seed without a label gets `default_label`.

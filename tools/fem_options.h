@@ -11,6 +11,7 @@
 #include "engine/labels/label_map.h"
 #include "engine/labels/materials.h"
 #include "engine/proxy/proxy_mesh.h"
+#include "haptics/fem_model.h"
 #include "tools/cli.h"
 #include "tools/pick_options.h"
 
@@ -25,6 +26,18 @@ struct FemCliOptions {
   double spacing_mm = 0;           // 0: the volume box's shortest side / 8
   int boundary_levels = 2;
   PickCliOptions pick;  // --pick PX,PY[:LABEL]: seeds picked on the rendered image
+};
+
+/// How the FEM runs, for every command that runs it (`replay`, `render --model fem`):
+/// --interaction, --fem-solver, --coupling-n-per-mm, --candidate-margin-mm,
+/// --fem-every-ticks and (with `realtime`) --fem-rate-hz.
+struct FemRunFlags {
+  haptics::FemOptions options;
+  std::string interaction = "press";
+  std::string solver = "linear";
+  void add_to(CLI::App& app, bool realtime = true);
+  /// The checked options, the tool radius half `tool_diameter_mm`; InputError naming the flag.
+  haptics::FemOptions resolve(double tool_diameter_mm) const;
 };
 
 /// Registers the flags on `app`; `options` must outlive the parse. --materials is optional

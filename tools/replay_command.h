@@ -41,10 +41,8 @@ struct ReplayFlags {
   double watchdog_periods = 1.0;
   // The deformation model: "voxel" (Prados) or "fem" (Nakao's proxy mesh).
   std::string model = "voxel";
-  FemCliOptions fem_mesh;  // --materials, --labels, --seed, ...
-  haptics::FemOptions fem;
-  std::string fem_interaction = "press";
-  std::string fem_solver = "linear";
+  FemCliOptions fem_mesh;             // --materials, --labels, --seed, ...
+  FemRunFlags fem_run;                // --interaction, --fem-solver, --coupling-n-per-mm, ...
   std::vector<std::string> relabels;  // --relabel T_S:FROM=TO (tools/relabel.h)
   // The options only --model fem reads (owned by the command's CLI::App): refused with
   // --model voxel when given, rather than silently ignored.

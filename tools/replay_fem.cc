@@ -18,25 +18,6 @@
 namespace hapvox::cli {
 namespace {
 
-// The FEM's options from the flags (the tool radius from --tool-diameter-mm).
-haptics::FemOptions fem_options(const ReplayFlags& f) {
-  haptics::FemOptions o = f.fem;
-  o.interaction = haptics::parse_fem_interaction(f.fem_interaction, "--interaction");
-  o.solver = haptics::parse_fem_solver(f.fem_solver, "--fem-solver");
-  o.tool_radius_mm = 0.5 * f.force.options.tool.diameter_mm;
-  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (!positive(o.tool_radius_mm)) throw InputError("--tool-diameter-mm", "must be positive");
-  if (!positive(o.coupling_n_per_mm)) throw InputError("--coupling-n-per-mm", "must be positive");
-  if (!std::isfinite(o.candidate_margin_mm) || o.candidate_margin_mm < 0.0) {
-    throw InputError("--candidate-margin-mm", "must be zero or positive");
-  }
-  if (o.fem_every_ticks == 0) throw InputError("--fem-every-ticks", "must be at least 1");
-  if (!(o.fem_rate_hz >= 1.0 && o.fem_rate_hz <= 1000.0)) {
-    throw InputError("--fem-rate-hz", "must lie in [1, 1000]");
-  }
-  return o;
-}
-
 // The box the tool's centre sweeps, grown by its radius: where the mesh is refined.
 Eigen::AlignedBox3d tool_region(const haptics::TraceDevice& device, double radius_mm) {
   Eigen::AlignedBox3d box;
@@ -54,7 +35,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
     throw InputError("--plastic", "needs --model voxel (the FEM model does not sculpt)");
   if (!f.sculpt_out.empty()) throw InputError("--sculpt-out", "needs --model voxel");
   if (f.fem_mesh.materials.empty()) throw InputError("--materials", "--model fem needs one");
-  const haptics::FemOptions options = fem_options(f);
+  const haptics::FemOptions options = f.fem_run.resolve(f.force.options.tool.diameter_mm);
   std::vector<Relabel> relabels;
   for (const std::string& text : f.relabels) relabels.push_back(parse_relabel(text));
   const haptics::TraceColumns columns = f.trace.columns();
