@@ -1,6 +1,6 @@
 // hapvox render VOLUME [--trace T] -o DIR: frames of the volume drawn headless (EGL),
 // stills or a turntable, or a lockstep replay of a trace with the tool pressing (and, with
-// --plastic, sculpting) the volume, a frame every N ticks.
+// --plastic, sculpting) the volume, a frame every N ticks. --model fem: tools/render_fem.cc.
 
 #include <cstdio>
 #include <cstdlib>
@@ -10,26 +10,10 @@
 #include "engine/relax.h"
 #include "haptics/voxel_model.h"
 #include "tools/cli.h"
-#include "tools/render_output.h"
+#include "tools/render_command.h"
 
 namespace hapvox::cli {
 namespace {
-
-struct RenderCommandFlags {
-  std::string volume;
-  std::string output;
-  std::string trace_path;
-  MappingFlags mapping;
-  TraceFlags trace;
-  TransformFlags transform;
-  ForceFlags force;
-  RenderFlags render;
-  int turntable = 0;
-  std::size_t every_ticks = 100;
-  bool plastic = false;
-  bool video = false;
-  bool quiet = false;
-};
 
 void encode_video(const std::string& dir, bool quiet) {
   if (std::system("command -v ffmpeg >/dev/null 2>&1") != 0) {
@@ -44,7 +28,39 @@ void encode_video(const std::string& dir, bool quiet) {
   if (!quiet) std::printf("wrote %s/frames.mp4\n", dir.c_str());
 }
 
+}  // namespace
+
+std::unique_ptr<haptics::TraceDevice> render_trace_device(const RenderCommandFlags& f,
+                                                          const engine::DensityField& field) {
+  if (f.trace_path.empty()) return nullptr;
+  const haptics::Trace trace = haptics::read_trace(f.trace_path, f.trace.columns());
+  haptics::ResampleOptions resample_options;
+  resample_options.rate_hz = f.trace.rate_hz;
+  resample_options.max_gap_s = f.trace.max_gap_s;
+  auto device = std::make_unique<haptics::TraceDevice>(haptics::resample(trace, resample_options),
+                                                       f.transform.resolve(trace, field));
+  if (device->tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
+  return device;
+}
+
+void draw_stills(FrameRecorder& recorder, int turntable) {
+  const int count = std::max(1, turntable);
+  for (int i = 0; i < count; ++i) {
+    render::OrbitCamera camera = recorder.camera();
+    camera.azimuth_deg += 360.0 * i / count;
+    recorder.draw(haptics::RenderToolState{}, &camera);
+  }
+}
+
+namespace {
+
 void run_render(const RenderCommandFlags& f) {
+  if (f.model != "voxel" && f.model != "fem") {
+    throw InputError("--model", "expected voxel or fem, got '" + f.model + "'");
+  }
+  if (f.model == "voxel") {
+    if (!f.fem_mesh.materials.empty()) throw InputError("--materials", "needs --model fem");
+  }
   if (f.turntable < 0 || f.turntable > 3600) {
     throw InputError("--turntable", "must lie in [0, 3600] frames");
   }
@@ -53,6 +69,11 @@ void run_render(const RenderCommandFlags& f) {
     throw InputError("--turntable", "cannot be combined with --trace");
   }
   if (f.plastic && f.trace_path.empty()) throw InputError("--plastic", "needs --trace");
+  if (f.model == "fem") {
+    run_fem_render(f);
+    if (f.video) encode_video(f.output, f.quiet);
+    return;
+  }
   std::vector<InputPath> inputs = volume_inputs(f.volume);
   if (!f.trace_path.empty()) inputs.push_back({f.trace_path, "trace"});
   for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
@@ -61,15 +82,7 @@ void run_render(const RenderCommandFlags& f) {
   const engine::IntensityMapping mapping = f.mapping.resolve();
   engine::DensityField field = engine::load_volume(f.volume, mapping);
   const RenderSetup setup = resolve_render_flags(f.render, f.volume, field);
-  std::unique_ptr<haptics::TraceDevice> device;
-  if (!f.trace_path.empty()) {
-    const haptics::Trace trace = haptics::read_trace(f.trace_path, f.trace.columns());
-    haptics::ResampleOptions resample_options;
-    resample_options.rate_hz = f.trace.rate_hz;
-    resample_options.max_gap_s = f.trace.max_gap_s;
-    device = std::make_unique<haptics::TraceDevice>(haptics::resample(trace, resample_options),
-                                                    f.transform.resolve(trace, field));
-  }
+  const std::unique_ptr<haptics::TraceDevice> device = render_trace_device(f, field);
   engine::ToolForceOptions force_options = f.force.resolve();
   force_options.plastic.enabled = f.plastic;
   const engine::ToolForceModel model(field, force_options);
@@ -81,12 +94,7 @@ void run_render(const RenderCommandFlags& f) {
                 recorder.context().version().c_str());
   }
   if (!device) {
-    const int count = std::max(1, f.turntable);
-    for (int i = 0; i < count; ++i) {
-      render::OrbitCamera camera = recorder.camera();
-      camera.azimuth_deg += 360.0 * i / count;
-      recorder.draw(haptics::RenderToolState{}, &camera);
-    }
+    draw_stills(recorder, f.turntable);
   } else {
     // The lockstep replay, the same stages as `hapvox replay`, drawing every N ticks.
     std::unique_ptr<engine::MassGrid> mass;
@@ -140,6 +148,12 @@ void add_render_command(CLI::App& app) {
   flags->trace.add_to(*cmd);
   flags->transform.add_to(*cmd);
   flags->force.add_to(*cmd);
+  cmd->add_option("--model", flags->model,
+                  "Deformation model: voxel (Prados: the FFD press, sculpting) or fem (Nakao: "
+                  "the volume as an adaptive tet proxy mesh deforms it; needs --materials)")
+      ->capture_default_str();
+  add_fem_options(*cmd, flags->fem_mesh);
+  flags->fem_run.add_to(*cmd, /*realtime=*/false);
   cmd->callback([flags] { run_render(*flags); });
 }
 

@@ -64,6 +64,17 @@ struct ReplayResult {
 /// `replay --model fem` (tools/replay_fem.cc).
 ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_line);
 
+/// The box the tool's centre sweeps over the trace, grown by `radius_mm`: where the proxy
+/// mesh is refined.
+Eigen::AlignedBox3d fem_tool_region(const haptics::TraceDevice& device, double radius_mm);
+
+/// A lockstep replay's frames for the proxy-FEM model: at a frame after a FEM step the
+/// recorder resamples the volume from the step's displacements (on the mesh they belong
+/// to), then draws. `recorder`, `model` and `fem` must outlive the replay.
+haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const haptics::FemModel& model,
+                                            const haptics::FemBackgroundStage& fem,
+                                            std::size_t every_ticks);
+
 /// The flags every model checks alike (limits, rates, scheduling); InputError naming the flag.
 void check_loop_flags(const ReplayFlags& f);
 

@@ -16,10 +16,8 @@
 #include "tools/replay_command.h"
 
 namespace hapvox::cli {
-namespace {
 
-// The box the tool's centre sweeps, grown by its radius: where the mesh is refined.
-Eigen::AlignedBox3d tool_region(const haptics::TraceDevice& device, double radius_mm) {
+Eigen::AlignedBox3d fem_tool_region(const haptics::TraceDevice& device, double radius_mm) {
   Eigen::AlignedBox3d box;
   for (std::size_t k = 0; k < device.tick_count(); ++k) box.extend(device.tool_position_mm(k));
   box.min().array() -= radius_mm;
@@ -27,7 +25,31 @@ Eigen::AlignedBox3d tool_region(const haptics::TraceDevice& device, double radiu
   return box;
 }
 
-}  // namespace
+haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const haptics::FemModel& model,
+                                            const haptics::FemBackgroundStage& fem,
+                                            std::size_t every_ticks) {
+  haptics::LockstepRender render;
+  render.every_ticks = every_ticks;
+  auto deformed_tick = std::make_shared<std::int64_t>(-1);
+  render.frame = [&recorder, &model, &fem, deformed_tick](std::size_t,
+                                                          const haptics::RenderToolState& tool) {
+    const haptics::FemFrame& latest = fem.frames().back();
+    if (latest.tick != *deformed_tick) {  // a FEM step since the last frame
+      // The mesh its displacements belong to: the run's first or a remesh's.
+      const engine::fem::TetMesh& mesh =
+          latest.mesh == 0
+              ? model.mesh()
+              : fem.remeshes()[static_cast<std::size_t>(latest.mesh - 1)]->model->mesh();
+      recorder.deform(mesh, latest.mesh,
+                      Eigen::Map<const Eigen::VectorXd>(
+                          latest.displacement_mm.data(),
+                          static_cast<Eigen::Index>(latest.displacement_mm.size())));
+      *deformed_tick = latest.tick;
+    }
+    recorder.draw(tool);
+  };
+  return render;
+}
 
 ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_line) {
   // Check everything the user gave before reading big files or creating output.
@@ -64,7 +86,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   if (device.tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
   if (!f.render_dir.empty()) check_render_flags(f, field);  // before the mesh is built
   const ProxyInputs proxy_inputs =
-      proxy_inputs_from_cli(f.volume, f.fem_mesh, tool_region(device, options.tool_radius_mm));
+      proxy_inputs_from_cli(f.volume, f.fem_mesh, fem_tool_region(device, options.tool_radius_mm));
   std::vector<haptics::LabelChange> changes =
       label_changes(relabels, proxy_inputs, device.tick_count(), device.rate_hz());
   const haptics::FemModel model(engine::proxy::build_proxy_mesh(
@@ -81,12 +103,6 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
       f, field,
       options.interaction == haptics::FemInteraction::kPress ? options.tool_radius_mm : 0.0);
   if (recorder) recorder->use_proxy_mesh();
-  // The mesh a FEM frame's displacements belong to: the run's first or a remesh's.
-  const auto mesh_of = [&](int mesh_index) -> const engine::fem::TetMesh& {
-    return mesh_index == 0
-               ? model.mesh()
-               : fem.remeshes()[static_cast<std::size_t>(mesh_index - 1)]->model->mesh();
-  };
 
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device);
@@ -104,19 +120,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                                    &timing, realtime);
     } else {
       haptics::LockstepRender render;
-      render.every_ticks = f.render_every_ticks;
-      std::int64_t deformed_tick = -1;
-      render.frame = [&](std::size_t, const haptics::RenderToolState& tool) {
-        const haptics::FemFrame& latest = fem.frames().back();
-        if (latest.tick != deformed_tick) {  // a FEM step since the last frame
-          recorder->deform(mesh_of(latest.mesh), latest.mesh,
-                           Eigen::Map<const Eigen::VectorXd>(
-                               latest.displacement_mm.data(),
-                               static_cast<Eigen::Index>(latest.displacement_mm.size())));
-          deformed_tick = latest.tick;
-        }
-        recorder->draw(tool);
-      };
+      if (recorder) render = fem_lockstep_frames(*recorder, model, fem, f.render_every_ticks);
       s = haptics::replay_lockstep(force, &fem, device, f.limits, &session, progress, nullptr,
                                    recorder ? &render : nullptr);
     }
