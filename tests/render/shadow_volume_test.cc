@@ -7,7 +7,9 @@
 #include <functional>
 
 #include "engine/density_field.h"
+#include "engine/fem/tet_mesh.h"
 #include "render/gl_context.h"
+#include "render/proxy_resample.h"
 #include "render/texels.h"
 #include "render/volume_renderer.h"
 
@@ -116,11 +118,14 @@ TEST(ShadowVolume, AMovedPlatesShadowMovesAndOnlyTheTouchedColumnsAreRecomputed)
   EXPECT_TRUE(shadow.update(plate_at(24), opacity).empty());
 }
 
-// Through EGL: a plate floating 26 mm above a floor, seen from the +x side 35 degrees up (the
-// plate hides no floor near its shadow). With --shadows the floor under the plate darkens
-// against the open floor; without, both are the same clay.
-TEST(ShadowRender, ThePlateDarkensTheFloorBelowItOnlyWithShadowsOn) {
-  static GlContext context;
+// One context for the suite: EGL displays are process-wide anyway.
+GlContext& shared_context() {
+  static GlContext gl;
+  return gl;
+}
+
+// A plate floating 26 mm above a floor, 48^3 voxels of 1 mm.
+engine::DensityField plate_over_floor() {
   engine::initialize_openvdb();
   auto grid = openvdb::FloatGrid::create(0.0f);
   auto access = grid->getAccessor();
@@ -133,16 +138,25 @@ TEST(ShadowRender, ThePlateDarkensTheFloorBelowItOnlyWithShadowsOn) {
       }
     }
   }
-  const engine::DensityField field(grid, Eigen::Vector3d::Ones(), Eigen::Vector3d::Zero(),
-                                   Eigen::Vector3i::Constant(48));
-  VolumeRenderer renderer(field, TransferFunction::from_spec("clay"));
-  const OrbitCamera camera =
-      OrbitCamera::framing(field.world_min_mm(), field.world_max_mm(), 0.0, 35.0);
-  RenderSettings settings;
-  settings.width = settings.height = 128;
-  settings.draw_tool = false;
+  return engine::DensityField(grid, Eigen::Vector3d::Ones(), Eigen::Vector3d::Zero(),
+                              Eigen::Vector3i::Constant(48));
+}
+
+// Seen from the +x side 35 degrees up: the plate hides no floor near its shadow.
+struct PlateView {
+  GlContext& context = shared_context();
+  engine::DensityField field = plate_over_floor();
+  VolumeRenderer renderer{field, TransferFunction::from_spec("clay")};
+  OrbitCamera camera = OrbitCamera::framing(field.world_min_mm(), field.world_max_mm(), 0.0, 35.0);
+  RenderSettings settings = [] {
+    RenderSettings s;
+    s.width = s.height = 128;
+    s.draw_tool = false;
+    return s;
+  }();
+
   // Mean brightness of a 5x5-pixel patch around where a world point projects.
-  auto patch = [&](const Image& image, const Eigen::Vector3d& at_mm) {
+  double patch(const Image& image, const Eigen::Vector3d& at_mm) const {
     const Eigen::Matrix4d mvp = camera.projection(1.0, 1.0, 1e4) * camera.view();
     const Eigen::Vector4d clip = mvp * at_mm.homogeneous();
     const int px = static_cast<int>((clip.x() / clip.w() * 0.5 + 0.5) * settings.width);
@@ -155,13 +169,19 @@ TEST(ShadowRender, ThePlateDarkensTheFloorBelowItOnlyWithShadowsOn) {
       }
     }
     return sum / 25.0;
-  };
+  }
+};
+
+// Through EGL: with --shadows the floor under the plate darkens against the open floor;
+// without, both are the same clay.
+TEST(ShadowRender, ThePlateDarkensTheFloorBelowItOnlyWithShadowsOn) {
+  PlateView view;
   const Eigen::Vector3d under_plate(14, 24, 9.5), open_floor(36, 24, 9.5);
-  const Image plain = renderer.render(camera, ToolPose{}, settings);
-  settings.shadows.enabled = true;
-  const Image shadowed = renderer.render(camera, ToolPose{}, settings);
-  const double plain_ratio = patch(plain, under_plate) / patch(plain, open_floor);
-  const double shadow_ratio = patch(shadowed, under_plate) / patch(shadowed, open_floor);
+  const Image plain = view.renderer.render(view.camera, ToolPose{}, view.settings);
+  view.settings.shadows.enabled = true;
+  const Image shadowed = view.renderer.render(view.camera, ToolPose{}, view.settings);
+  const double plain_ratio = view.patch(plain, under_plate) / view.patch(plain, open_floor);
+  const double shadow_ratio = view.patch(shadowed, under_plate) / view.patch(shadowed, open_floor);
   std::printf("floor under the plate / open floor: %.3f plain, %.3f with shadows\n", plain_ratio,
               shadow_ratio);
   EXPECT_NEAR(plain_ratio, 1.0, 0.05);
@@ -169,10 +189,40 @@ TEST(ShadowRender, ThePlateDarkensTheFloorBelowItOnlyWithShadowsOn) {
   // The plate's own top faces the light: darkened only by the clay its surface samples see
   // through (slices behind the surface, under it).
   const Eigen::Vector3d plate_top(14, 24, 39.5);
-  EXPECT_GT(patch(shadowed, plate_top), 0.9 * patch(plain, plate_top));
+  EXPECT_GT(view.patch(shadowed, plate_top), 0.9 * view.patch(plain, plate_top));
   // Off again: today's image, bit for bit.
-  settings.shadows.enabled = false;
-  EXPECT_EQ(renderer.render(camera, ToolPose{}, settings).rgba, plain.rgba);
+  view.settings.shadows.enabled = false;
+  EXPECT_EQ(view.renderer.render(view.camera, ToolPose{}, view.settings).rgba, plain.rgba);
+}
+
+// The proxy mesh carries the plate 16 mm along +x (its upper vertices move, the floor's stay):
+// the resampled bricks mark their columns and the next shadowed frame moves the shadow along.
+TEST(ShadowRender, APlateTheProxyMeshMovesTakesItsShadowAlong) {
+  PlateView view;
+  view.settings.shadows.enabled = true;
+  const Eigen::Vector3d old_place(14, 24, 9.5), new_place(30, 24, 9.5), open_floor(42, 24, 9.5);
+  const Image before = view.renderer.render(view.camera, ToolPose{}, view.settings);
+  ProxyResampler resampler(dense_copy(view.field));
+  const engine::fem::TetMesh mesh =
+      engine::fem::regular_lattice({7, 7, 7}, 47.0 / 6.0, Eigen::Vector3d::Zero());
+  resampler.set_mesh(mesh);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * mesh.vertex_count());
+  for (int v = 0; v < mesh.vertex_count(); ++v) {
+    if (mesh.rest_mm(2, v) > 30.0) u[3 * v] = 16.0;  // the lattice's top two layers
+  }
+  resampler.update(u);
+  view.renderer.replace_texels(resampler.texels(), resampler.changed_bricks());
+  const Image after = view.renderer.render(view.camera, ToolPose{}, view.settings);
+  const double old_before = view.patch(before, old_place) / view.patch(before, open_floor);
+  const double new_before = view.patch(before, new_place) / view.patch(before, open_floor);
+  const double old_after = view.patch(after, old_place) / view.patch(after, open_floor);
+  const double new_after = view.patch(after, new_place) / view.patch(after, open_floor);
+  std::printf("floor at the old / new place vs open floor: before %.3f / %.3f, after %.3f / %.3f\n",
+              old_before, new_before, old_after, new_after);
+  EXPECT_LT(old_before, 0.75);
+  EXPECT_NEAR(new_before, 1.0, 0.05);
+  EXPECT_NEAR(old_after, 1.0, 0.05);
+  EXPECT_LT(new_after, 0.75);
 }
 
 }  // namespace
