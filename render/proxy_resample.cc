@@ -4,6 +4,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 
 #include "engine/check.h"
 
@@ -48,7 +52,8 @@ void ProxyResampler::set_mesh(const engine::fem::TetMesh& mesh) {
 }
 
 template <class Visit>
-void ProxyResampler::rasterize(const Eigen::Matrix<double, 3, 4>& corners_mm, Visit&& visit) {
+void ProxyResampler::rasterize(const Eigen::Matrix<double, 3, 4>& corners_mm, int z_from, int z_to,
+                               Visit&& visit) const {
   Eigen::Matrix3d edges;
   for (int k = 0; k < 3; ++k) edges.col(k) = corners_mm.col(k + 1) - corners_mm.col(0);
   const double det = edges.determinant();
@@ -66,6 +71,9 @@ void ProxyResampler::rasterize(const Eigen::Matrix<double, 3, 4>& corners_mm, Vi
     to[a] = static_cast<int>(std::min(last[a], static_cast<double>(dims_[a] - 1)));
     if (!(first[a] <= static_cast<double>(dims_[a] - 1) && last[a] >= 0.0)) return;
   }
+  from.z() = std::max(from.z(), z_from);
+  to.z() = std::min(to.z(), z_to);
+  if (from.z() > to.z()) return;     // not in this slab
   constexpr double kInside = -1e-9;  // voxel centres on a shared face belong to both tets
   // Scanlines along x: lambda is linear in x, lambda(x) = at_row + x * per_x, so each row's
   // inside interval is found first (widened by a voxel against rounding) and only its voxels
@@ -125,58 +133,29 @@ void ProxyResampler::mark_bricks(const Eigen::Vector3d& lo_mm, const Eigen::Vect
   }
 }
 
-ResampleStats ProxyResampler::update(const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const int vertices = mesh_.vertex_count();
-  HAPVOX_CHECK_GT(vertices, 0);
-  HAPVOX_CHECK_EQ(displacement_mm.size(), 3 * static_cast<Eigen::Index>(vertices));
-  ResampleStats stats;
-  const double threshold_mm = options_.motion_threshold_voxels * voxel_mm_.minCoeff();
-  for (int v = 0; v < vertices; ++v) {
-    vertex_moved_[static_cast<std::size_t>(v)] =
-        displacement_mm.segment<3>(3 * v).norm() > threshold_mm ? 1 : 0;
-  }
-  std::fill(vertex_rotated_.begin(), vertex_rotated_.end(), 0);
-  auto rotation = [&](std::int32_t v) -> const Eigen::Matrix3d& {
-    const auto k = static_cast<std::size_t>(v);
-    if (!vertex_rotated_[k]) {  // once per update, for the vertices of moved tets only
-      vertex_rotations_[k] = vertex_rotation(mesh_, frame_neighbours_[k], v, displacement_mm);
-      vertex_rotated_[k] = 1;
-    }
-    return vertex_rotations_[k];
-  };
-  auto is_moved = [&](std::int32_t v) { return vertex_moved_[static_cast<std::size_t>(v)] == 1; };
-
+std::size_t ProxyResampler::resample_slab(
+    int z_from, int z_to, const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
+  std::size_t resampled = 0;
   Eigen::Matrix<double, 3, 4> rest, deformed;
-  Eigen::Matrix3d rotations[4];
-  for (std::int32_t t = 0; t < mesh_.tet_count(); ++t) {
-    const engine::fem::Tet& tet = mesh_.tets[static_cast<std::size_t>(t)];
-    bool moved = false;
-    for (int a = 0; a < 4; ++a) moved = moved || is_moved(tet[a]);
-    if (!moved) continue;
-    ++stats.moved_tets;
+  const Eigen::Matrix3d* rotations[4];
+  for (std::size_t m = 0; m < moved_tets_.size(); ++m) {
+    const engine::fem::Tet& tet = mesh_.tets[static_cast<std::size_t>(moved_tets_[m])];
     for (int a = 0; a < 4; ++a) {
       rest.col(a) = mesh_.rest_mm.col(tet[a]);
       deformed.col(a) = rest.col(a) + displacement_mm.segment<3>(3 * tet[a]);
+      rotations[a] = &vertex_rotations_[static_cast<std::size_t>(tet[a])];
     }
-    mark_bricks(rest.rowwise().minCoeff(), rest.rowwise().maxCoeff());
-    mark_bricks(deformed.rowwise().minCoeff(), deformed.rowwise().maxCoeff());
     // Its rest place: vacated unless a deformed tet covers it.
-    rasterize(rest, [&](int x, int y, int z, const Eigen::Vector4d&) {
-      std::uint8_t& s = state_[index(x, y, z)];
-      if (s == 0) s = 1;
+    rasterize(rest, z_from, z_to, [&](int x, int y, int z, const Eigen::Vector4d&) {
+      std::uint8_t& state = state_[index(x, y, z)];
+      if (state == 0) state = 1;
     });
-    Eigen::Matrix3d inverse_transpose = Eigen::Matrix3d::Identity();
-    if (options_.gradient == GradientTransform::kTetInverseTranspose) {
-      inverse_transpose = tet_inverse_transpose(mesh_, t, displacement_mm);
-    } else {
-      for (int a = 0; a < 4; ++a) rotations[a] = rotation(tet[a]);
-    }
-    rasterize(deformed, [&](int x, int y, int z, const Eigen::Vector4d& lambda) {
+    const bool inverse_transpose = options_.gradient == GradientTransform::kTetInverseTranspose;
+    rasterize(deformed, z_from, z_to, [&](int x, int y, int z, const Eigen::Vector4d& lambda) {
       const std::size_t i = index(x, y, z);
       if (state_[i] == 2) return;  // the first tet in index order keeps a shared voxel
       state_[i] = 2;
-      ++stats.resampled_voxels;
+      ++resampled;
       // Trilinear sample of the rest texels at X, with the texture's clamp to edge.
       const Eigen::Vector3d rest_mm = rest * lambda;
       const Eigen::Vector3d s = (rest_mm - lo_mm_).cwiseQuotient(voxel_mm_).array() - 0.5;
@@ -197,14 +176,14 @@ ResampleStats ProxyResampler::update(const Eigen::Ref<const Eigen::VectorXd>& di
       }
       const Eigen::Vector3d gradient = sample.head<3>() / 127.5 - Eigen::Vector3d::Ones();
       Eigen::Vector3d turned;
-      if (options_.gradient == GradientTransform::kTetInverseTranspose) {
+      if (inverse_transpose) {
         // F^-T g, at the length g had: the shader reads the length as "shaded or not".
-        turned = inverse_transpose * gradient;
+        turned = tet_inverse_transposes_[m] * gradient;
         const double norm = turned.norm();
         if (norm > 0.0) turned *= gradient.norm() / norm;
       } else {
-        Eigen::Matrix3d blend = lambda[0] * rotations[0];
-        for (int a = 1; a < 4; ++a) blend += lambda[a] * rotations[a];
+        Eigen::Matrix3d blend = lambda[0] * *rotations[0];
+        for (int a = 1; a < 4; ++a) blend += lambda[a] * *rotations[a];
         turned = blend * gradient;
       }
       std::uint8_t* out = &texels_[i * 4];
@@ -212,29 +191,91 @@ ResampleStats ProxyResampler::update(const Eigen::Ref<const Eigen::VectorXd>& di
       out[3] = to_byte(sample[3]);
     });
   }
+  return resampled;
+}
 
-  // Settle the bricks touched now, restore those touched only before.
-  changed_.clear();
-  for (std::uint32_t b : bricks_now_) {
-    Eigen::Vector3i lo, hi;
-    brick_voxel_box(dims_, b, lo, hi);
-    for (int z = lo.z(); z < hi.z(); ++z) {
-      for (int y = lo.y(); y < hi.y(); ++y) {
-        for (int x = lo.x(); x < hi.x(); ++x) {
-          const std::size_t i = index(x, y, z);
-          if (state_[i] == 0) {
-            std::copy_n(&rest_texels_[i * 4], 4, &texels_[i * 4]);
-          } else if (state_[i] == 1) {
-            static constexpr std::uint8_t kEmpty[4] = {128, 128, 128, 0};
-            std::copy_n(kEmpty, 4, &texels_[i * 4]);
-            ++stats.vacated_voxels;
-          }
-          state_[i] = 0;
-        }
-      }
-    }
-    changed_.push_back(b);
+ResampleStats ProxyResampler::update(const Eigen::Ref<const Eigen::VectorXd>& displacement_mm) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int vertices = mesh_.vertex_count();
+  HAPVOX_CHECK_GT(vertices, 0);
+  HAPVOX_CHECK_EQ(displacement_mm.size(), 3 * static_cast<Eigen::Index>(vertices));
+  ResampleStats stats;
+  const double threshold_mm = options_.motion_threshold_voxels * voxel_mm_.minCoeff();
+  for (int v = 0; v < vertices; ++v) {
+    vertex_moved_[static_cast<std::size_t>(v)] =
+        displacement_mm.segment<3>(3 * v).norm() > threshold_mm ? 1 : 0;
   }
+  // Serially: the moved tets, the bricks they touch, and the rotations (or F^-T) they use.
+  std::fill(vertex_rotated_.begin(), vertex_rotated_.end(), 0);
+  moved_tets_.clear();
+  tet_inverse_transposes_.clear();
+  for (std::int32_t t = 0; t < mesh_.tet_count(); ++t) {
+    const engine::fem::Tet& tet = mesh_.tets[static_cast<std::size_t>(t)];
+    bool moved = false;
+    for (int a = 0; a < 4; ++a) moved = moved || vertex_moved_[static_cast<std::size_t>(tet[a])];
+    if (!moved) continue;
+    moved_tets_.push_back(t);
+    Eigen::Matrix<double, 3, 4> rest, deformed;
+    for (int a = 0; a < 4; ++a) {
+      rest.col(a) = mesh_.rest_mm.col(tet[a]);
+      deformed.col(a) = rest.col(a) + displacement_mm.segment<3>(3 * tet[a]);
+    }
+    mark_bricks(rest.rowwise().minCoeff(), rest.rowwise().maxCoeff());
+    mark_bricks(deformed.rowwise().minCoeff(), deformed.rowwise().maxCoeff());
+    if (options_.gradient == GradientTransform::kTetInverseTranspose) {
+      tet_inverse_transposes_.push_back(tet_inverse_transpose(mesh_, t, displacement_mm));
+      continue;
+    }
+    for (int a = 0; a < 4; ++a) {  // once per update, for the vertices of moved tets only
+      const auto k = static_cast<std::size_t>(tet[a]);
+      if (vertex_rotated_[k]) continue;
+      vertex_rotations_[k] = vertex_rotation(mesh_, frame_neighbours_[k], tet[a], displacement_mm);
+      vertex_rotated_[k] = 1;
+    }
+  }
+  stats.moved_tets = moved_tets_.size();
+  // In parallel: slabs of one brick layer each, every voxel written by its slab alone, the
+  // tets taken in index order within each, so the result does not depend on the threads.
+  stats.resampled_voxels = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, bricks_.z()), std::size_t{0},
+      [&](const tbb::blocked_range<int>& layers, std::size_t count) {
+        for (int layer = layers.begin(); layer != layers.end(); ++layer) {
+          count +=
+              resample_slab(layer * kBrickVoxels,
+                            std::min((layer + 1) * kBrickVoxels, dims_.z()) - 1, displacement_mm);
+        }
+        return count;
+      },
+      std::plus<>());
+
+  // Settle the bricks touched now (in parallel, each brick its own), restore those touched
+  // only before.
+  stats.vacated_voxels = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, bricks_now_.size()), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& range, std::size_t vacated) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+          Eigen::Vector3i lo, hi;
+          brick_voxel_box(dims_, bricks_now_[k], lo, hi);
+          for (int z = lo.z(); z < hi.z(); ++z) {
+            for (int y = lo.y(); y < hi.y(); ++y) {
+              for (int x = lo.x(); x < hi.x(); ++x) {
+                const std::size_t i = index(x, y, z);
+                if (state_[i] == 0) {
+                  std::copy_n(&rest_texels_[i * 4], 4, &texels_[i * 4]);
+                } else if (state_[i] == 1) {
+                  static constexpr std::uint8_t kEmpty[4] = {128, 128, 128, 0};
+                  std::copy_n(kEmpty, 4, &texels_[i * 4]);
+                  ++vacated;
+                }
+                state_[i] = 0;
+              }
+            }
+          }
+        }
+        return vacated;
+      },
+      std::plus<>());
+  changed_.assign(bricks_now_.begin(), bricks_now_.end());
   for (std::uint32_t b : bricks_before_) {
     brick_before_[b] = 0;
     if (brick_now_[b]) continue;

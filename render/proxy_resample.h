@@ -59,8 +59,14 @@ class ProxyResampler {
   const Eigen::Vector3i& dims() const { return dims_; }
 
  private:
+  // Visits the voxel centres inside the tet with z in [z_from, z_to].
   template <class Visit>
-  void rasterize(const Eigen::Matrix<double, 3, 4>& corners_mm, Visit&& visit);
+  void rasterize(const Eigen::Matrix<double, 3, 4>& corners_mm, int z_from, int z_to,
+                 Visit&& visit) const;
+  // The moved tets' voxels with z in [z_from, z_to]: their rest places marked vacated, their
+  // deformed places resampled (the first tet in index order keeps a shared voxel).
+  std::size_t resample_slab(int z_from, int z_to,
+                            const Eigen::Ref<const Eigen::VectorXd>& displacement_mm);
   void mark_bricks(const Eigen::Vector3d& lo_mm, const Eigen::Vector3d& hi_mm);
   std::size_t index(int x, int y, int z) const {
     return (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x;
@@ -80,6 +86,8 @@ class ProxyResampler {
   std::vector<std::uint32_t> bricks_now_, bricks_before_, changed_;
   std::vector<Eigen::Matrix3d> vertex_rotations_;
   std::vector<std::uint8_t> vertex_moved_, vertex_rotated_;
+  std::vector<std::int32_t> moved_tets_;
+  std::vector<Eigen::Matrix3d> tet_inverse_transposes_;  // per moved tet, with kTetInverseTranspose
 };
 
 }  // namespace hapvox::render

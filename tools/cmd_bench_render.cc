@@ -15,6 +15,8 @@
 #include <memory>
 #include <sstream>
 
+#include <tbb/global_control.h>
+
 #include "engine/errors.h"
 #include "render/gl_context.h"
 #include "render/proxy_resample.h"
@@ -188,12 +190,19 @@ void run_bench_render(const BenchRenderFlags& f) {
     resampler.set_mesh(mesh);
     const Eigen::VectorXd u =
         bench_grab(mesh, top, 0.25 * (field.world_max_mm() - field.world_min_mm()).norm());
-    std::vector<double> resample_ms;
+    std::vector<double> resample_ms, serial_ms;
     render::ResampleStats resampled;
     for (int i = 0; i < 3; ++i) {  // the texture at rest, then deformed (timed)
       resampler.update(Eigen::VectorXd::Zero(u.size()));
       resampled = resampler.update(u);
       resample_ms.push_back(resampled.ms);
+    }
+    {  // the baseline: the same resample on one thread
+      tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+      for (int i = 0; i < 3; ++i) {
+        resampler.update(Eigen::VectorXd::Zero(u.size()));
+        serial_ms.push_back(resampler.update(u).ms);
+      }
     }
     // Shadows: the whole volume on the first shadowed frame, then only the columns the
     // resample changed.
@@ -209,9 +218,11 @@ void run_bench_render(const BenchRenderFlags& f) {
                 spec.c_str(), "", "fem: shadows", shadow_full_ms, shadow_stats.shadow_ms);
     const Eigen::Vector3i bricks = render::brick_counts(field.dims());
     std::printf(
-        "%-40s %5s %-30s resampled in %.1f ms (median of 3): %zu of %d tets moved, %zu of %d "
-        "bricks changed\n",
+        "%-40s %5s %-30s resampled in %.1f ms (median of 3; %.1f ms on one thread, %.2fx), "
+        "%zu of %d tets moved, %zu of %d bricks changed\n",
         spec.c_str(), "", "fem: proxy mesh 14^3", haptics::percentile(resample_ms, 50.0),
+        haptics::percentile(serial_ms, 50.0),
+        haptics::percentile(serial_ms, 50.0) / haptics::percentile(resample_ms, 50.0),
         resampled.moved_tets, mesh.tet_count(), resampled.changed_bricks, bricks.prod());
     render::ToolPose grab;  // drawn where it holds the material, without the FFD's press
     grab.radius_mm = tool.radius_mm;

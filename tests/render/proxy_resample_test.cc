@@ -1,6 +1,7 @@
 #include "render/proxy_resample.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -149,6 +150,38 @@ TEST(ProxyResample, AQuarterTurnMovesEachTexelToItsTurnedPlaceWithItsGradientTur
         }
       }
     }
+  }
+}
+
+// The resample runs brick layers in parallel: one thread or many, the same texels, bit for
+// bit, under a deformation whose tets cross layers and overlap (a twist and a bulge).
+TEST(ProxyResample, ParallelLayersGiveWhatOneThreadGives) {
+  const Scene scene(40, 5);
+  Eigen::VectorXd u =
+      affine(scene.mesh, Eigen::AngleAxisd(0.4, Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+             scene.centre(), {1.5, -2.0, 3.0});
+  for (int v = 0; v < scene.mesh.vertex_count(); ++v) {
+    const Vector3d x = scene.mesh.rest_mm.col(v) - scene.centre();
+    u.segment<3>(3 * v) += 4.0 * std::exp(-x.squaredNorm() / 100.0) * x.normalized();
+  }
+  for (GradientTransform g :
+       {GradientTransform::kVertexRotation, GradientTransform::kTetInverseTranspose}) {
+    ResampleOptions options;
+    options.gradient = g;
+    ProxyResampler serial(scene.dense, options), parallel(scene.dense, options);
+    serial.set_mesh(scene.mesh);
+    parallel.set_mesh(scene.mesh);
+    ResampleStats one;
+    {
+      tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
+      one = serial.update(u);
+    }
+    const ResampleStats many = parallel.update(u);
+    EXPECT_EQ(one.resampled_voxels, many.resampled_voxels);
+    EXPECT_EQ(one.vacated_voxels, many.vacated_voxels);
+    EXPECT_GT(many.vacated_voxels, 0u);
+    EXPECT_EQ(serial.changed_bricks(), parallel.changed_bricks());
+    EXPECT_TRUE(serial.texels() == parallel.texels()) << gradient_transform_name(g);
   }
 }
 
