@@ -105,6 +105,7 @@ class FrameRecorder {
   std::string dir_;
   double tool_radius_mm_;
   render::RenderSettings settings_;
+  bool on_render_thread_;
   render::OrbitCamera camera_;
   std::unique_ptr<render::GlContext> context_;
   std::unique_ptr<render::VolumeRenderer> renderer_;
