@@ -37,12 +37,14 @@ const std::vector<std::uint32_t>& ShadowVolume::update(const std::vector<std::ui
                                                        const std::array<float, 256>& opacity) {
   HAPVOX_CHECK_EQ(texels.size(), transmittance_.size() * 4);
   changed_.clear();
+  std::array<float, 256> pass{};  // 1 - a through a whole voxel
+  for (int i = 0; i < 256; ++i) pass[i] = std::clamp(1.0f - opacity[i], 0.0f, 1.0f);
   for (int by = 0; by < bricks_.y(); ++by) {
     for (int bx = 0; bx < bricks_.x(); ++bx) {
       std::uint8_t& marked = column_marked_[static_cast<std::size_t>(by) * bricks_.x() + bx];
       if (!marked) continue;
       marked = 0;
-      compute_column(bx, by, texels, opacity);
+      compute_column(bx, by, texels, pass);
       for (int bz = 0; bz < bricks_.z(); ++bz) {
         changed_.push_back(static_cast<std::uint32_t>((bz * bricks_.y() + by) * bricks_.x() + bx));
       }
@@ -53,7 +55,7 @@ const std::vector<std::uint32_t>& ShadowVolume::update(const std::vector<std::ui
 }
 
 void ShadowVolume::compute_column(int bx, int by, const std::vector<std::uint8_t>& texels,
-                                  const std::array<float, 256>& opacity) {
+                                  const std::array<float, 256>& pass) {
   const int x0 = bx * kBrickVoxels, x1 = std::min(x0 + kBrickVoxels, dims_.x());
   const int y0 = by * kBrickVoxels, y1 = std::min(y0 + kBrickVoxels, dims_.y());
   const int w = x1 - x0, h = y1 - y0;
@@ -62,8 +64,6 @@ void ShadowVolume::compute_column(int bx, int by, const std::vector<std::uint8_t
   const int wide_w = w + 2 * blur_, wide_h = h + 2 * blur_;
   const std::size_t plane = static_cast<std::size_t>(wide_w) * wide_h;
   raw_.resize(plane * static_cast<std::size_t>(dims_.z()));
-  std::array<float, 256> pass{};  // 1 - a through a whole voxel
-  for (int i = 0; i < 256; ++i) pass[i] = std::clamp(1.0f - opacity[i], 0.0f, 1.0f);
   across_x_.assign(plane, 1.0f);  // the light reaching the current plane's top, per column
   for (int z = dims_.z() - 1; z >= 0; --z) {
     float* out = &raw_[plane * static_cast<std::size_t>(z)];

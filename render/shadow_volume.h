@@ -44,8 +44,9 @@ class ShadowVolume {
   int blur_voxels() const { return blur_; }
 
  private:
+  // `pass`: 1 - a, the light a voxel of each density byte lets through.
   void compute_column(int bx, int by, const std::vector<std::uint8_t>& texels,
-                      const std::array<float, 256>& opacity);
+                      const std::array<float, 256>& pass);
 
   Eigen::Vector3i dims_;
   Eigen::Vector3i bricks_;

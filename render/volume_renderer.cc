@@ -344,25 +344,37 @@ std::size_t VolumeRenderer::replace_texels(const std::vector<std::uint8_t>& texe
   return bricks.size();
 }
 
-void VolumeRenderer::upload_bricks(const std::vector<std::uint32_t>& bricks, const char* what) {
-  if (bricks.empty()) return;
-  glBindTexture(GL_TEXTURE_3D, gl_->volume_texture);
+namespace {
+
+// Uploads the 8^3 bricks `bricks` of `voxels` (the whole box, `format` bytes per voxel:
+// GL_RGBA or GL_RED) into `texture`, brick by brick.
+void upload_brick_boxes(GLuint texture, const Eigen::Vector3i& dims,
+                        const std::vector<std::uint32_t>& bricks, GLenum format,
+                        const std::uint8_t* voxels) {
+  glBindTexture(GL_TEXTURE_3D, texture);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glPixelStorei(GL_UNPACK_ROW_LENGTH, volume_.dims.x());
-  glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, volume_.dims.y());
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, dims.x());
+  glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, dims.y());
   for (std::uint32_t b : bricks) {
     Eigen::Vector3i lo, hi;
-    brick_voxel_box(volume_.dims, b, lo, hi);
+    brick_voxel_box(dims, b, lo, hi);
     glPixelStorei(GL_UNPACK_SKIP_PIXELS, lo.x());
     glPixelStorei(GL_UNPACK_SKIP_ROWS, lo.y());
     glPixelStorei(GL_UNPACK_SKIP_IMAGES, lo.z());
     glTexSubImage3D(GL_TEXTURE_3D, 0, lo.x(), lo.y(), lo.z(), hi.x() - lo.x(), hi.y() - lo.y(),
-                    hi.z() - lo.z(), GL_RGBA, GL_UNSIGNED_BYTE, texels_.data());
+                    hi.z() - lo.z(), format, GL_UNSIGNED_BYTE, voxels);
   }
   for (GLenum p : {GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT, GL_UNPACK_SKIP_PIXELS,
                    GL_UNPACK_SKIP_ROWS, GL_UNPACK_SKIP_IMAGES}) {
     glPixelStorei(p, 0);
   }
+}
+
+}  // namespace
+
+void VolumeRenderer::upload_bricks(const std::vector<std::uint32_t>& bricks, const char* what) {
+  if (bricks.empty()) return;
+  upload_brick_boxes(gl_->volume_texture, volume_.dims, bricks, GL_RGBA, texels_.data());
   bricks_uploaded_total_ += bricks.size();
   if (shadow_) shadow_->mark_bricks(bricks);
   check_gl(what);
@@ -387,23 +399,7 @@ void VolumeRenderer::update_shadows(int blur_voxels) {
   }
   const std::vector<std::uint32_t>& changed = shadow_->update(texels_, opacity_);
   if (changed.empty()) return;
-  glBindTexture(GL_TEXTURE_3D, g.shadow_texture);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glPixelStorei(GL_UNPACK_ROW_LENGTH, dims.x());
-  glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, dims.y());
-  for (std::uint32_t b : changed) {
-    Eigen::Vector3i lo, hi;
-    brick_voxel_box(dims, b, lo, hi);
-    glPixelStorei(GL_UNPACK_SKIP_PIXELS, lo.x());
-    glPixelStorei(GL_UNPACK_SKIP_ROWS, lo.y());
-    glPixelStorei(GL_UNPACK_SKIP_IMAGES, lo.z());
-    glTexSubImage3D(GL_TEXTURE_3D, 0, lo.x(), lo.y(), lo.z(), hi.x() - lo.x(), hi.y() - lo.y(),
-                    hi.z() - lo.z(), GL_RED, GL_UNSIGNED_BYTE, shadow_->transmittance().data());
-  }
-  for (GLenum p : {GL_UNPACK_ROW_LENGTH, GL_UNPACK_IMAGE_HEIGHT, GL_UNPACK_SKIP_PIXELS,
-                   GL_UNPACK_SKIP_ROWS, GL_UNPACK_SKIP_IMAGES}) {
-    glPixelStorei(p, 0);
-  }
+  upload_brick_boxes(g.shadow_texture, dims, changed, GL_RED, shadow_->transmittance().data());
   check_gl("uploading the shadow volume");
 }
 

@@ -158,11 +158,16 @@ void run_bench_render(const BenchRenderFlags& f) {
     tool.center_mm = top + Eigen::Vector3d(0, 0, tool.radius_mm - 3.0);
     tool.displacement_mm = Eigen::Vector3d(0, 0, -3.0);
     tool.in_contact = true;
-    for (int size : sizes) {
+    // Our settings at one image size: f.slices slices, the adaptive mesh.
+    const auto ours_at = [&](int size) {
       render::RenderSettings ours;
       ours.width = ours.height = size;
       ours.mesh.slices = f.slices;
       ours.mesh.voxel_mm = field.voxel_size_mm().minCoeff();
+      return ours;
+    };
+    for (int size : sizes) {
+      render::RenderSettings ours = ours_at(size);
       render::RenderSettings naive = ours;
       naive.mesh.slices = 500;
       naive.mesh.tessellation = render::Tessellation::kUniform;
@@ -228,10 +233,7 @@ void run_bench_render(const BenchRenderFlags& f) {
     grab.radius_mm = tool.radius_mm;
     grab.center_mm = top + Eigen::Vector3d(4.0, 0.0, 4.5);
     for (int size : sizes) {
-      render::RenderSettings ours;
-      ours.width = ours.height = size;
-      ours.mesh.slices = f.slices;
-      ours.mesh.voxel_mm = field.voxel_size_mm().minCoeff();
+      render::RenderSettings ours = ours_at(size);
       render::RenderSettings reference = ours;
       reference.mesh.slices = 500;
       const render::Image ref = deformed.render(camera, grab, reference);
