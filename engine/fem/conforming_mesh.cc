@@ -12,6 +12,7 @@
 #include "engine/check.h"
 #include "engine/errors.h"
 #include "engine/fem/mesh_refinement.h"
+#include "engine/fem/tet_stencils.h"
 
 namespace hapvox::engine::fem {
 namespace {
@@ -109,11 +110,6 @@ void refine(BisectionMesh& mesh, const ConformingMeshOptions& options, const Lab
   }
 }
 
-std::uint64_t edge_key(std::int32_t a, std::int32_t b) {
-  if (a > b) std::swap(a, b);
-  return static_cast<std::uint64_t>(a) << 32 | static_cast<std::uint32_t>(b);
-}
-
 struct Edge {
   std::int32_t a = 0, b = 0;  // a < b
   // Where the label changes, as a fraction of the way from a to b; valid while `cut`.
@@ -145,56 +141,6 @@ bool dihedrals_within(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const 
   }
   return true;
 }
-
-// Emits tets with positive orientation; quadrilaterals are split by the diagonal through
-// their lowest-numbered vertex, which both tets sharing the quadrilateral agree on.
-class Emitter {
- public:
-  Emitter(const std::vector<Eigen::Vector3d>& positions, TetMesh& out)
-      : positions_(positions), out_(out) {}
-
-  int degenerate() const { return degenerate_; }
-
-  void tet(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d, std::int32_t label) {
-    Tet tet = {a, b, c, d};
-    const double volume =
-        signed_volume_mm3(positions_[a], positions_[b], positions_[c], positions_[d]);
-    if (volume == 0) {
-      ++degenerate_;
-      return;
-    }
-    if (volume < 0) std::swap(tet[2], tet[3]);
-    out_.tets.push_back(tet);
-    out_.labels.push_back(label);
-  }
-
-  // The pyramid with apex `apex` over the quadrilateral q0 q1 q2 q3 (in cyclic order).
-  void pyramid(std::int32_t apex, const std::array<std::int32_t, 4>& q, std::int32_t label) {
-    const auto lowest = std::min_element(q.begin(), q.end()) - q.begin();
-    const int s = lowest % 2;  // the diagonal q_s - q_{s+2}
-    tet(apex, q[s], q[s + 1], q[s + 2], label);
-    tet(apex, q[s], q[s + 2], q[(s + 3) % 4], label);
-  }
-
-  // The prism with triangles a0 a1 a2 and b0 b1 b2 and lateral edges a_i - b_i (Dompierre et
-  // al. 1999: split at its lowest-numbered vertex, then the remaining pyramid).
-  void prism(std::array<std::int32_t, 3> a, std::array<std::int32_t, 3> b, std::int32_t label) {
-    const std::int32_t lowest_a = *std::min_element(a.begin(), a.end());
-    const std::int32_t lowest_b = *std::min_element(b.begin(), b.end());
-    if (lowest_b < lowest_a) std::swap(a, b);
-    while (a[0] != std::min(lowest_a, lowest_b)) {
-      std::rotate(a.begin(), a.begin() + 1, a.end());
-      std::rotate(b.begin(), b.begin() + 1, b.end());
-    }
-    tet(a[0], b[0], b[1], b[2], label);
-    pyramid(a[0], {a[1], a[2], b[2], b[1]}, label);
-  }
-
- private:
-  const std::vector<Eigen::Vector3d>& positions_;
-  TetMesh& out_;
-  int degenerate_ = 0;
-};
 
 }  // namespace
 
@@ -376,7 +322,7 @@ ConformingMesh build_conforming_mesh(const ConformingMeshOptions& options,
   for (std::size_t v = 0; v < positions.size(); ++v) mesh.rest_mm.col(v) = positions[v];
 
   // 5. Cutting.
-  Emitter emit(positions, mesh);
+  TetEmitter emit(positions, mesh);
   auto cut = [&](std::int32_t a, std::int32_t b) {
     const Edge& edge = edges[edge_of(a, b)];
     HAPVOX_CHECK(edge.cut);
