@@ -121,7 +121,9 @@ void FemBackgroundStage::take_over(std::unique_ptr<FemRemesh> remesh, std::int64
   HAPVOX_CHECK_EQ(remesh->from_previous.size(),
                   static_cast<std::size_t>(remesh->model->mesh().vertex_count()));
   displacement_mm_ = engine::fem::interpolate_vector_field(remesh->from_previous, displacement_mm_);
-  for (const int dof : remesh->model->fixed_dofs()) displacement_mm_(dof) = 0.0;
+  for (const int dof : remesh->model->fixed_dofs()) {
+    displacement_mm_(dof) = remesh->model->prescribed_mm()(dof);
+  }
   captured_of_.push_back(std::move(captured_));  // a press's is empty
   captured_.clear();
   // Owned by remeshes_ before it is current, so an exception below leaves no dangling model_.
@@ -295,7 +297,7 @@ void FemBackgroundStage::fem_step(const Vec3d& device_mm, const Vec3d& tick_prox
     loads = contact_loads(*provisional, device_mm, old_proxy_mm, proxy_mm);
   }
   const int dofs = 3 * model_->mesh().vertex_count();
-  const Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(dofs);
+  const Eigen::VectorXd& prescribed = model_->prescribed_mm();
   if (corotational_ != nullptr) {
     displacement_mm_ = corotational_->step_mm(displacement_mm_, loads, prescribed);
   } else {

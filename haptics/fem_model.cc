@@ -54,13 +54,26 @@ FemModel::FemModel(engine::proxy::ProxyMesh proxy, const FemOptions& options)
     if (proxy_.vertex_classes[v] != engine::fem::VertexClass::kFixed) continue;
     for (int axis = 0; axis < 3; ++axis) fixed_dofs_.push_back(engine::fem::dof_index(v, axis));
   }
+  // Prescribed displacements (an incision's opening) are held like the fixed vertices, at
+  // their values.
+  prescribed_mm_ = Eigen::VectorXd::Zero(3 * proxy_.mesh.vertex_count());
+  std::vector<char> held(proxy_.mesh.vertex_count(), 0);
+  for (const auto& [dof, mm] : proxy_.prescribed_mm) {
+    HAPVOX_CHECK(dof >= 0 && dof < prescribed_mm_.size());
+    prescribed_mm_(dof) = mm;
+    held[dof / 3] = 1;
+    if (proxy_.vertex_classes[dof / 3] != engine::fem::VertexClass::kFixed) {
+      fixed_dofs_.push_back(dof);
+    }
+  }
+  std::sort(fixed_dofs_.begin(), fixed_dofs_.end());
   linear_ = std::make_unique<engine::fem::LinearFem>(proxy_.mesh, proxy_.materials, fixed_dofs_);
   std::vector<char> on_surface(proxy_.mesh.vertex_count(), 0);
   for (const engine::fem::Triangle& face : engine::fem::boundary_faces(proxy_.mesh)) {
     for (const std::int32_t v : face) on_surface[v] = 1;
   }
   for (std::int32_t v = 0; v < proxy_.mesh.vertex_count(); ++v) {
-    if (proxy_.vertex_classes[v] == engine::fem::VertexClass::kFixed) continue;
+    if (proxy_.vertex_classes[v] == engine::fem::VertexClass::kFixed || held[v]) continue;
     free_vertices_.push_back(v);
     if (on_surface[v]) surface_vertices_.push_back(v);
   }

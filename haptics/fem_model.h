@@ -82,16 +82,21 @@ class FemModel {
   const engine::fem::TetMesh& mesh() const { return proxy_.mesh; }
   const FemOptions& options() const { return options_; }
   const engine::fem::LinearFem& linear() const { return *linear_; }
+  /// The DOFs the FEM holds (Dirichlet): the fixed vertices' and the prescribed ones, sorted.
   const std::vector<int>& fixed_dofs() const { return fixed_dofs_; }
-  /// Free vertices on the mesh's surface (those a press can touch), in vertex order.
+  /// Every DOF's held displacement (mm): the proxy's prescribed_mm, zero elsewhere.
+  const Eigen::VectorXd& prescribed_mm() const { return prescribed_mm_; }
+  /// Free vertices on the mesh's surface (those a press can touch; not those held
+  /// prescribed), in vertex order.
   const std::vector<std::int32_t>& surface_vertices() const { return surface_vertices_; }
-  /// Free vertices in vertex order (those a grab can capture).
+  /// Free vertices in vertex order (those a grab can capture; not those held prescribed).
   const std::vector<std::int32_t>& free_vertices() const { return free_vertices_; }
 
  private:
   engine::proxy::ProxyMesh proxy_;
   FemOptions options_;
   std::vector<int> fixed_dofs_;
+  Eigen::VectorXd prescribed_mm_;
   std::unique_ptr<engine::fem::LinearFem> linear_;
   std::vector<std::int32_t> surface_vertices_;
   std::vector<std::int32_t> free_vertices_;

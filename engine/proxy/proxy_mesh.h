@@ -9,6 +9,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/fem/conforming_mesh.h"
@@ -26,6 +27,9 @@ struct ProxyMesh {
   std::vector<fem::VertexClass> vertex_classes;  // kFixed or kFree (kConstrained at run time)
   fem::ConformingMeshReport report;              // counts, dihedral range, volume errors
   std::string materials_source;                  // the materials file, as named in errors
+  /// Displacements (DOF, mm) the FEM holds its vertices at: an incision's opening
+  /// (engine/proxy/incised_proxy.h). Empty for a mesh as built.
+  std::vector<std::pair<int, double>> prescribed_mm;
 };
 
 /// How the mesh is built over the label map.
