@@ -5,13 +5,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <utility>
 
 #include "engine/errors.h"
 #include "engine/labels/text.h"
+#include "engine/text_file.h"
 
 namespace hapvox::engine::labels {
 
@@ -303,14 +301,7 @@ Materials parse_materials(std::string_view text, const std::string& source) {
 }
 
 Materials read_materials(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "cannot open file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(path, "cannot read file");
-  return parse_materials(text.str(), path);
+  return parse_materials(read_text_file(path), path);
 }
 
 void check_labels_have_materials(const LabelMap& map, const Materials& materials) {

@@ -3,12 +3,10 @@
 #include <toml++/toml.h>
 
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <vector>
 
 #include "engine/errors.h"
+#include "engine/text_file.h"
 
 namespace hapvox::engine::proxy {
 namespace {
@@ -114,14 +112,7 @@ IncisionFile parse_incision(std::string_view text, const std::string& source) {
 }
 
 IncisionFile read_incision(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "cannot open file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(path, "cannot read file");
-  return parse_incision(text.str(), path);
+  return parse_incision(read_text_file(path), path);
 }
 
 }  // namespace hapvox::engine::proxy
