@@ -60,6 +60,7 @@ void run_render(const RenderCommandFlags& f) {
   }
   if (f.model == "voxel") {
     if (!f.fem_mesh.materials.empty()) throw InputError("--materials", "needs --model fem");
+    if (!f.fem_run.incision.empty()) throw InputError("--incision", "needs --model fem");
   }
   if (f.turntable < 0 || f.turntable > 3600) {
     throw InputError("--turntable", "must lie in [0, 3600] frames");

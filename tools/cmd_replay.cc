@@ -25,6 +25,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     throw InputError("--model", "unknown model '" + f.model + "' (voxel or fem)");
   // Check everything the user gave before reading big files or creating output.
   if (!f.fem_mesh.materials.empty()) throw InputError("--materials", "needs --model fem");
+  if (!f.fem_run.incision.empty()) throw InputError("--incision", "needs --model fem");
   for (const CLI::Option* option : f.fem_only_options) {
     if (option->count() > 0) throw InputError(option->get_name(), "needs --model fem");
   }

@@ -1,11 +1,15 @@
 #include "tools/fem_options.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <memory>
 
 #include "engine/errors.h"
 #include "engine/labels/label_map.h"
 #include "engine/labels/materials.h"
+#include "engine/proxy/incised_proxy.h"
 #include "engine/proxy/label_source.h"
 
 namespace hapvox::cli {
@@ -30,6 +34,40 @@ void FemRunFlags::add_to(CLI::App& app, bool realtime) {
     app.add_option("--fem-rate-hz", options.fem_rate_hz, "fem, realtime: the FEM thread's rate")
         ->capture_default_str();
   }
+  app.add_option("--incision", incision,
+                 "fem: an incision file (TOML: width_mm, polyline_mm + sweep_mm or triangles_mm, "
+                 "at_s; docs/formats.md): the proxy mesh is cut and held open by the width");
+}
+
+std::optional<engine::proxy::IncisionFile> FemRunFlags::read_incision() const {
+  if (incision.empty()) return std::nullopt;
+  return engine::proxy::read_incision(incision);
+}
+
+void plan_incision(const engine::proxy::IncisionFile& incision, bool from_start, std::size_t ticks,
+                   double rate_hz, engine::proxy::ProxyMesh& proxy,
+                   std::vector<haptics::LabelChange>& changes) {
+  auto incised = std::make_shared<const engine::proxy::ProxyMesh>(
+      engine::proxy::incise(proxy, incision.cut, incision.width_mm, incision.source));
+  if (from_start || !incision.at_s) {
+    proxy = *incised;
+    return;
+  }
+  // Compared as a double first: llround of a time far past the end is out of range.
+  const double tick_d = std::round(*incision.at_s * rate_hz);
+  if (!(tick_d < static_cast<double>(ticks))) {
+    char what[160];
+    std::snprintf(what, sizeof what, "at_s %g s is past the trace's end (%g s)", *incision.at_s,
+                  static_cast<double>(ticks) / rate_hz);
+    throw InputError(incision.source, what);
+  }
+  haptics::LabelChange change;
+  change.tick = static_cast<std::int64_t>(tick_d);
+  change.description = "incision " + incision.source;
+  change.build_proxy = [incised] { return *incised; };
+  changes.push_back(std::move(change));
+  std::stable_sort(changes.begin(), changes.end(),
+                   [](const auto& a, const auto& b) { return a.tick < b.tick; });
 }
 
 haptics::FemOptions FemRunFlags::resolve(double tool_diameter_mm) const {

@@ -10,8 +10,10 @@
 
 #include "engine/labels/label_map.h"
 #include "engine/labels/materials.h"
+#include "engine/proxy/incision_file.h"
 #include "engine/proxy/proxy_mesh.h"
 #include "haptics/fem_model.h"
+#include "haptics/fem_remesh.h"
 #include "tools/cli.h"
 #include "tools/pick_options.h"
 
@@ -30,15 +32,27 @@ struct FemCliOptions {
 
 /// How the FEM runs, for every command that runs it (`replay`, `render --model fem`):
 /// --interaction, --fem-solver, --coupling-n-per-mm, --candidate-margin-mm,
-/// --fem-every-ticks and (with `realtime`) --fem-rate-hz.
+/// --fem-every-ticks, --incision and (with `realtime`) --fem-rate-hz.
 struct FemRunFlags {
   haptics::FemOptions options;
   std::string interaction = "press";
   std::string solver = "linear";
+  std::string incision;  // --incision FILE (engine/proxy/incision_file.h); "" for none
   void add_to(CLI::App& app, bool realtime = true);
   /// The checked options, the tool radius half `tool_diameter_mm`; InputError naming the flag.
   haptics::FemOptions resolve(double tool_diameter_mm) const;
+  /// The incision file, read and checked, when --incision was given (InputError naming it).
+  std::optional<engine::proxy::IncisionFile> read_incision() const;
 };
+
+/// Makes the incision in a run (engine/proxy/incised_proxy.h): without at_s, or with
+/// `from_start` (no trace to time it by), `proxy` is cut now; else the cut is made now too
+/// (so a bad cut stops the run before it starts) and a mesh change takes it over at the tick
+/// nearest at_s at `rate_hz`, appended to `changes`. Throws InputError(the file, ...) for an
+/// at_s past the trace's `ticks` and for a cut the mesh rejects.
+void plan_incision(const engine::proxy::IncisionFile& incision, bool from_start, std::size_t ticks,
+                   double rate_hz, engine::proxy::ProxyMesh& proxy,
+                   std::vector<haptics::LabelChange>& changes);
 
 /// Registers the flags on `app`; `options` must outlive the parse. --materials is optional
 /// here (replay's voxel model needs none): mark it required where a command always meshes.

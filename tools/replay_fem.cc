@@ -60,6 +60,12 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   const haptics::FemOptions options = f.fem_run.resolve(f.force.options.tool.diameter_mm);
   std::vector<Relabel> relabels;
   for (const std::string& text : f.relabels) relabels.push_back(parse_relabel(text));
+  const std::optional<engine::proxy::IncisionFile> incision = f.fem_run.read_incision();
+  if (incision && !relabels.empty()) {
+    throw InputError("--incision",
+                     "cannot be combined with --relabel (a relabelled mesh would "
+                     "lose the cut)");
+  }
   const haptics::TraceColumns columns = f.trace.columns();
   const engine::IntensityMapping mapping = f.mapping.resolve();
   check_loop_flags(f);
@@ -68,6 +74,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   std::vector<InputPath> inputs = volume_inputs(f.volume);
   inputs.push_back({f.trace_path, "trace"});
   for (const InputPath& input : fem_inputs(f.fem_mesh)) inputs.push_back(input);
+  if (incision) inputs.push_back({incision->source, "incision file"});
   if (!f.render_dir.empty()) {
     for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
   }
@@ -89,9 +96,12 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
       proxy_inputs_from_cli(f.volume, f.fem_mesh, fem_tool_region(device, options.tool_radius_mm));
   std::vector<haptics::LabelChange> changes =
       label_changes(relabels, proxy_inputs, device.tick_count(), device.rate_hz());
-  const haptics::FemModel model(engine::proxy::build_proxy_mesh(
-                                    proxy_inputs.labels, proxy_inputs.materials, proxy_inputs.mesh),
-                                options);
+  engine::proxy::ProxyMesh proxy = engine::proxy::build_proxy_mesh(
+      proxy_inputs.labels, proxy_inputs.materials, proxy_inputs.mesh);
+  if (incision) {
+    plan_incision(*incision, false, device.tick_count(), device.rate_hz(), proxy, changes);
+  }
+  const haptics::FemModel model(std::move(proxy), options);
   // The stages (haptics/fem_model.h); the loops see only their seams.
   auto handoff = std::make_unique<haptics::FemHandoff>();
   haptics::FemForceStage force(model, *handoff);
@@ -106,6 +116,11 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
 
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device);
+  if (incision) {
+    session.set_attribute("incision", incision->source);
+    session.set_attribute("incision_width_mm", incision->width_mm);
+    session.set_attribute("incision_at_s", incision->at_s.value_or(0.0));
+  }
   haptics::TimingSummary timing;
   haptics::ReplaySummary s;
   try {

@@ -97,6 +97,81 @@ TEST(ReplayFemCli, AGrabWritesTheMeshTheDisplacementsAndAnXdmfAndIsBitReproducib
   EXPECT_NE(info.out.find("fem"), std::string::npos) << info.out;
 }
 
+// An incision file: the plane y = 8.3 across the phantom from above it down to z = 12, opened
+// `width_mm`, made at `at_s`.
+std::string write_incision(const std::string& dir, double width_mm, double at_s) {
+  const std::string path = dir + "/cut.toml";
+  std::ofstream out(path);
+  out << "width_mm = " << width_mm << "\nat_s = " << at_s
+      << "\npolyline_mm = [[-2, 8.3, 34], [34, 8.3, 34]]\nsweep_mm = [0, 0, -22]\n";
+  return path;
+}
+
+TEST(ReplayFemCli, ATimedIncisionCutsTheMeshMidRunAndHoldsItOpen) {
+  const std::string dir = scratch_dir();
+  const std::string trace = write_pull_trace(dir, 2.0);
+  const std::string a = dir + "/cut.h5";
+  const auto r = run_hapvox(fem_args(trace, a) + " --incision " + write_incision(dir, 2.0, 0.1));
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_EQ(haptics::read_session_column(a, "fem/remesh_change_tick"), std::vector<double>{100});
+  const std::vector<double> rest0 = haptics::read_session_column(a, "mesh/rest_mm");
+  const std::vector<double> rest = haptics::read_session_column(a, "fem/remesh_1/mesh/rest_mm");
+  const std::vector<double> u = haptics::read_session_column(a, "fem/remesh_1/displacement_mm");
+  const std::size_t vertices = rest.size() / 3;
+  ASSERT_GT(vertices, rest0.size() / 3);  // split: crossings and their copies added
+  ASSERT_EQ(u.size() % (3 * vertices), 0u);
+  const std::size_t steps = u.size() / (3 * vertices);
+  ASSERT_GT(steps, 10u);
+  // The copies: two vertices at one point of the cut plane, from the first mesh's vertex
+  // count on. In every step the + copy (the first) sits 2 mm further along +y.
+  int pairs = 0;
+  for (std::size_t v = rest0.size() / 3; v < vertices; ++v) {
+    if (std::abs(rest[3 * v + 1] - 8.3) > 1e-9) continue;
+    for (std::size_t w = v + 1; w < vertices; ++w) {
+      if (rest[3 * w] != rest[3 * v] || rest[3 * w + 1] != rest[3 * v + 1] ||
+          rest[3 * w + 2] != rest[3 * v + 2]) {
+        continue;
+      }
+      ++pairs;
+      for (std::size_t s = 0; s < steps; ++s) {
+        const double* uv = &u[3 * (s * vertices + v)];
+        const double* uw = &u[3 * (s * vertices + w)];
+        ASSERT_NEAR(uv[1] - uw[1], 2.0, 1e-9) << "step " << s;
+        ASSERT_NEAR(uv[0] - uw[0], 0.0, 1e-9);
+        ASSERT_NEAR(uv[2] - uw[2], 0.0, 1e-9);
+      }
+    }
+  }
+  EXPECT_GT(pairs, 10);
+  // The pull goes on: the material still pulls the tool back along -x.
+  const std::vector<double> f = haptics::read_session_column(a, "force_n");
+  EXPECT_LT(f[3 * 250], 0.0);
+}
+
+TEST(ReplayFemCli, BadIncisionsAreOneLineAndNoSession) {
+  const std::string dir = scratch_dir();
+  const std::string trace = write_pull_trace(dir, 2.0);
+  const std::string cut = write_incision(dir, 2.0, 5.0);
+  struct Case {
+    std::string args, error;
+  };
+  const std::vector<Case> cases = {
+      {" --incision " + cut, cut + ": at_s 5 s is past the trace's end (0.301 s)"},
+      {" --incision " + cut + " --relabel 0.1:1=0",
+       "--incision: cannot be combined with --relabel (a relabelled mesh would lose the cut)"},
+  };
+  for (const Case& c : cases) {
+    const auto r = run_hapvox(fem_args(trace, dir + "/bad.h5") + c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args << r.out;
+    EXPECT_EQ(r.err, "hapvox: error: " + c.error + "\n") << c.args;
+    EXPECT_FALSE(fs::exists(dir + "/bad.h5")) << c.args;
+  }
+  const auto voxel = run_hapvox("replay " + trace + " --volume " + kPhantom + " --incision " + cut +
+                                " -q -o " + dir + "/bad.h5");
+  EXPECT_EQ(voxel.exit_code, 2);
+  EXPECT_EQ(voxel.err, "hapvox: error: --incision: needs --model fem\n");
+}
+
 TEST(ReplayFemCli, ARelabelRebuildsTheMeshMidRunAndTheSessionAndXdmfHoldBothMeshes) {
   const std::string dir = scratch_dir();
   const std::string trace = write_pull_trace(dir, 2.0);
