@@ -464,7 +464,11 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   const Eigen::Vector3d view_dir = camera.view_direction();
   auto tm = std::chrono::steady_clock::now();
   if (has_visible_ && (hi - lo).minCoeff() > 0.0) {
-    build_slice_mesh(volume_.lo_mm, volume_.hi_mm, lo, hi, view_dir, tool, settings.mesh, mesh_);
+    if (slice_builder_) {
+      slice_builder_(lo, hi, view_dir, settings.mesh.slices, mesh_);
+    } else {
+      build_slice_mesh(volume_.lo_mm, volume_.hi_mm, lo, hi, view_dir, tool, settings.mesh, mesh_);
+    }
   } else {
     mesh_.vertices.clear();
     mesh_.indices.clear();

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -75,6 +76,15 @@ class VolumeRenderer {
 
   void set_transfer_function(const TransferFunction& transfer);
 
+  /// Makes the slices each frame draws: the visible box [lo, hi] (mm), the view direction,
+  /// the settings' slice count, into `mesh`.
+  using SliceBuilder =
+      std::function<void(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                         const Eigen::Vector3d& view_direction, int slices, SliceMesh& mesh)>;
+  /// Slices from `builder` instead of the FFD slice mesh (the proxy mesh's block hybrid,
+  /// render/tet_slicer.h); an empty function brings the FFD slices back.
+  void set_slice_builder(SliceBuilder builder) { slice_builder_ = std::move(builder); }
+
   /// Renders one frame. Changes not yet flushed are flushed first.
   Image render(const OrbitCamera& camera, const ToolPose& tool, const RenderSettings& settings,
                FrameStats* stats = nullptr);
@@ -95,6 +105,7 @@ class VolumeRenderer {
   void update_shadows(int blur_voxels);
 
   std::unique_ptr<Gl> gl_;
+  SliceBuilder slice_builder_;
   DenseVolume volume_;
   Eigen::Vector3d visible_lo_ = Eigen::Vector3d::Zero(), visible_hi_ = Eigen::Vector3d::Zero();
   bool has_visible_ = false;

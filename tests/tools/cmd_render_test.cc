@@ -173,6 +173,10 @@ TEST(RenderCli, BenchRenderPrintsOursBesideTheNaiveMeshWithPsnr) {
   EXPECT_NE(r.out.find("fem / voxel fps"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("fem + shadows"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("shadow volume in"), std::string::npos) << r.out;
+  // The block hybrid beside the resample, and both per new displacement.
+  EXPECT_NE(r.out.find("fem: block hybrid, 64 sl"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("blocks of 32^3 deformed"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("fem: new displacement + frame  resampled"), std::string::npos) << r.out;
   const auto moved = r.out.find(" of 13182 tets moved");
   ASSERT_NE(moved, std::string::npos) << r.out;
   const auto count_from = r.out.rfind(' ', moved - 1) + 1;
