@@ -4,7 +4,9 @@
 // image quality of both against a 500-slice reference (PSNR), with a tool pressing. Then the
 // proxy-FEM model's rows: a lattice proxy mesh of about 3k vertices deformed by a smooth
 // 6 mm grab, the volume resampled into the texture (render/proxy_resample.h, timed apart:
-// it runs once per FEM step, not per frame) and drawn, against its 500-slice reference.
+// it runs once per FEM step, not per frame) and drawn, against its 500-slice reference;
+// beside it the block hybrid (render/tet_slicer.h: the deformed tets sliced, plain polygons
+// elsewhere), and the cost of a new displacement plus a frame either way.
 
 #include <algorithm>
 #include <chrono>
