@@ -5,12 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <set>
 
 #include "engine/errors.h"
 #include "engine/proxy/incised_proxy.h"
 #include "fem_fixtures.h"
 #include "haptics/fem_model.h"
+#include "haptics/realtime.h"
 
 namespace hapvox::haptics {
 namespace {
@@ -97,6 +99,36 @@ TEST(FemIncision, ATimedIncisionOpensTheCutInTheMiddleOfARun) {
   EXPECT_GT(after, 5);
   // The grab held on through the change.
   EXPECT_LT(run.force_n.back().z(), 0.0);
+}
+
+// ThreadSanitizer runs this one (FemRealtime.*): the cut built beside the FEM thread and
+// taken over by it while the force thread reads snapshots.
+TEST(FemRealtime, ATimedIncisionIsTakenOverByTheFemThreadAndHeldOpen) {
+  const FemModel model(block(), options(FemInteraction::kGrab, 10));
+  const TraceDevice device = grab_path();  // 0.4 s
+  auto handoff = std::make_unique<FemHandoff>();
+  FemForceStage force(model, *handoff);
+  FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
+  LabelChange change;
+  change.tick = 20;  // leaves 0.38 s for the build (milliseconds; more under TSan)
+  change.description = "incision cut";
+  change.build_proxy = [] { return engine::proxy::incise(block(), cut(), 2.0, "cut"); };
+  std::vector<LabelChange> changes;
+  changes.push_back(change);
+  fem.set_label_changes(std::move(changes));
+  const ReplaySummary summary =
+      replay_realtime(force, &fem, device, no_ramp(), nullptr, {}, nullptr, nullptr);
+  EXPECT_EQ(summary.ticks, device.tick_count());
+  EXPECT_EQ(force.counters().nonfinite_forces, 0u);
+  ASSERT_EQ(fem.remeshes().size(), 1u);
+  // Every step on the cut mesh holds it open.
+  int cut_steps = 0;
+  for (const FemFrame& frame : fem.frames()) {
+    if (frame.mesh != 1) continue;
+    ++cut_steps;
+    EXPECT_LT(opening_error_mm(fem.model().mesh(), frame.displacement_mm, 2.0), 1e-12);
+  }
+  EXPECT_GT(cut_steps, 0);
 }
 
 TEST(FemIncision, AWidthThatIsNotPositiveIsAnInputError) {
