@@ -34,6 +34,7 @@ class TetSlicer {
   TetSlicer(const Eigen::Vector3d& frame_lo, const Eigen::Vector3d& frame_hi,
             const Eigen::Vector3i& dims, int block_voxels = 32);
 
+  /// The mesh displacements refer to; it must outlive the slicer (kept by reference).
   void set_mesh(const engine::fem::TetMesh& mesh);
   /// Finds the moved tets (a vertex moved by more than `threshold_mm`) and the deformed blocks.
   TetSliceStats set_displacement(const Eigen::Ref<const Eigen::VectorXd>& displacement_mm,
