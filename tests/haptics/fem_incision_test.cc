@@ -105,12 +105,18 @@ TEST(FemIncision, ATimedIncisionOpensTheCutInTheMiddleOfARun) {
 // taken over by it while the force thread reads snapshots.
 TEST(FemRealtime, ATimedIncisionIsTakenOverByTheFemThreadAndHeldOpen) {
   const FemModel model(block(), options(FemInteraction::kGrab, 10));
-  const TraceDevice device = grab_path();  // 0.4 s
+  // 3 s: up 1 mm over 0.2 s from the top centre, then held, so that the cut's build (a
+  // rebuild thread at nice 10: milliseconds alone, over 0.4 s under ThreadSanitizer beside
+  // a compile) is taken over well before the end, as in the rebuild test.
+  const Vec3d start(6.0, 6.0, kBlockTopMm);
+  const TraceDevice device = device_along(3000, [start](std::size_t k) {
+    return Vec3d(start + Vec3d(0.0, 0.0, std::min(1.0, static_cast<double>(k) / 200.0)));
+  });
   auto handoff = std::make_unique<FemHandoff>();
   FemForceStage force(model, *handoff);
   FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
   LabelChange change;
-  change.tick = 20;  // leaves 0.38 s for the build (milliseconds; more under TSan)
+  change.tick = 20;
   change.description = "incision cut";
   change.build_proxy = [] { return engine::proxy::incise(block(), cut(), 2.0, "cut"); };
   std::vector<LabelChange> changes;
