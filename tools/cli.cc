@@ -299,13 +299,18 @@ std::optional<std::string> overwrite_reason(const OutputPath& output, const fs::
 
 }  // namespace
 
+std::string volume_help() {
+  return "Volume file (" + engine::io::volume_extensions_text(", ", ", ") + ") or generator (" +
+         engine::io::generator_names_text() + ")";
+}
+
 std::vector<InputPath> volume_inputs(const std::string& spec) {
   std::vector<InputPath> inputs;
   if (spec.empty() || !fs::exists(spec)) return inputs;
   inputs.push_back({spec, "volume"});
-  if (fs::path(spec).extension() == ".nhdr") {
+  if (const engine::io::VolumeFormat* format = engine::io::find_volume_format(spec)) {
     try {
-      const std::string data = engine::nrrd_data_file(spec);
+      const std::string data = format->data_file(spec);
       if (!data.empty()) inputs.push_back({data, "volume data file"});
     } catch (const InputError&) {
       // A bad header is reported, better, when the volume is read.

@@ -39,18 +39,22 @@ void print_field(const engine::DensityField& field) {
 }
 
 void info_volume(const InfoFlags& f) {
-  const std::string ext = std::filesystem::path(f.path).extension().string();
-  if (ext == ".nrrd" || ext == ".nhdr") {
-    const engine::RawVolume raw = engine::read_nrrd(f.path);
-    std::printf("%s: NRRD volume, %s samples\n", f.path.c_str(), raw.sample_type.c_str());
+  const engine::io::VolumeFormat* format = engine::io::find_volume_format(f.path);
+  if (format != nullptr && format->holds_samples && !engine::is_generator_spec(f.path)) {
+    const engine::RawVolume raw = format->read_samples(f.path);
+    std::printf("%s: %s volume, %s samples\n", f.path.c_str(), format->name,
+                raw.sample_type.c_str());
     std::printf("  intensity        %g .. %g (Otsu threshold %g)\n", raw.min_intensity,
                 raw.max_intensity, engine::otsu_threshold(raw));
     print_field(engine::map_to_density(raw, f.mapping.resolve(), f.path));
     return;
   }
   const engine::DensityField field = engine::load_volume(f.path, f.mapping.resolve());
-  std::printf("%s: %s\n", f.path.c_str(),
-              engine::is_generator_spec(f.path) ? "generated density volume" : "OpenVDB volume");
+  if (engine::is_generator_spec(f.path)) {
+    std::printf("%s: generated density volume\n", f.path.c_str());
+  } else {
+    std::printf("%s: %s volume\n", f.path.c_str(), format->name);
+  }
   print_field(field);
 }
 
@@ -139,11 +143,11 @@ void print_fem_strain(const std::string& path, int remeshes) {
 
 void run_info(const InfoFlags& f) {
   namespace fs = std::filesystem;
-  const std::string ext = fs::path(f.path).extension().string();
-  if (engine::is_generator_spec(f.path) || ext == ".nrrd" || ext == ".nhdr" || ext == ".vdb") {
+  if (engine::is_generator_spec(f.path) || engine::io::find_volume_format(f.path) != nullptr) {
     info_volume(f);
     return;
   }
+  const std::string ext = fs::path(f.path).extension().string();
   if (!fs::exists(f.path)) throw InputError(f.path, "cannot open file");
   if (ext == ".csv") {
     info_trace(f);
@@ -182,9 +186,9 @@ void run_info(const InfoFlags& f) {
     }
     return;
   }
-  throw InputError(f.path, "unknown file type '" + ext +
-                               "' (expected a volume .nrrd/.nhdr/.vdb, a trace .csv/.h5, or a "
-                               "session .h5)");
+  throw InputError(f.path, "unknown file type '" + ext + "' (expected a volume " +
+                               engine::io::volume_extensions_text("/", "/") +
+                               ", a trace .csv/.h5, or a session .h5)");
 }
 
 }  // namespace
@@ -192,8 +196,8 @@ void run_info(const InfoFlags& f) {
 void add_info_command(CLI::App& app) {
   auto flags = std::make_shared<InfoFlags>();
   CLI::App* cmd = app.add_subcommand(
-      "info",
-      "Describe a volume (.nrrd, .nhdr, .vdb, generator), trace (.csv, .h5), session or mesh");
+      "info", "Describe a volume (" + engine::io::volume_extensions_text(", ", ", ") +
+                  ", generator), trace (.csv, .h5), session or mesh");
   cmd->add_option("file", flags->path, "File or generator to describe")->required();
   flags->mapping.add_to(*cmd);
   flags->trace.add_to(*cmd);

@@ -101,8 +101,7 @@ void add_mesh_command(CLI::App& app) {
   auto flags = std::make_shared<MeshFlags>();
   CLI::App* cmd = app.add_subcommand(
       "mesh", "Build the proxy model's tet mesh of a volume's labels (HDF5 + XDMF for ParaView)");
-  cmd->add_option("volume", flags->volume, "Volume file (.nrrd, .nhdr, .vdb) or generator")
-      ->required();
+  cmd->add_option("volume", flags->volume, volume_help())->required();
   cmd->add_option("-o,--output", flags->output, "Mesh file to write (.h5)")->required();
   add_fem_options(*cmd, flags->fem);
   cmd->get_option("--materials")->required();

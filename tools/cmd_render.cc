@@ -133,8 +133,7 @@ void add_render_command(CLI::App& app) {
   auto flags = std::make_shared<RenderCommandFlags>();
   CLI::App* cmd = app.add_subcommand(
       "render", "Draw a volume headless (EGL): stills, a turntable, or a trace being replayed");
-  cmd->add_option("volume", flags->volume, "Volume file (.nrrd, .nhdr, .vdb) or generator")
-      ->required();
+  cmd->add_option("volume", flags->volume, volume_help())->required();
   cmd->add_option("--output,-o", flags->output, "Directory for frame_NNNN.png (created)")
       ->required();
   cmd->add_option("--trace", flags->trace_path, "Replay this trace (lockstep) and draw the tool");

@@ -219,9 +219,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
 
 void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
   cmd->add_option("trace", flags->trace_path, "Trace file (.csv or .h5)")->required();
-  cmd->add_option("--volume,-v", flags->volume,
-                  "Volume file (.nrrd, .nhdr, .vdb) or generator (block, sphere, four-spheres)")
-      ->required();
+  cmd->add_option("--volume,-v", flags->volume, volume_help())->required();
   cmd->add_option("--max-force-n", flags->limits.max_force_n, "Device force limit, N")
       ->capture_default_str();
   cmd->add_option("--ramp-in-s", flags->limits.ramp_in_s, "Force ramp-in time at start, s")

@@ -32,13 +32,6 @@ std::int64_t sample_count(const Vec3i& dims) {
   return static_cast<std::int64_t>(dims.x()) * dims.y() * dims.z();
 }
 
-std::string extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -112,38 +105,6 @@ std::vector<Vec3i> LabelMap::boundary_voxels(Label label) const {
 
 // ---------------------------------------------------------------------------------------
 // Volumes.
-
-RawVolume dense_intensity(const DensityField& field) {
-  RawVolume raw;
-  raw.dims = field.dims();
-  raw.spacing_mm = field.voxel_size_mm();
-  raw.origin_mm = field.origin_mm();
-  raw.sample_type = "float";
-  raw.intensity.resize(static_cast<std::size_t>(sample_count(raw.dims)));
-  auto accessor = field.grid().getConstAccessor();
-  std::size_t i = 0;
-  for (int z = 0; z < raw.dims.z(); ++z) {
-    for (int y = 0; y < raw.dims.y(); ++y) {
-      for (int x = 0; x < raw.dims.x(); ++x) {
-        raw.intensity[i++] = accessor.getValue(openvdb::Coord(x, y, z));
-      }
-    }
-  }
-  const auto [lo, hi] = std::minmax_element(raw.intensity.begin(), raw.intensity.end());
-  raw.min_intensity = *lo;
-  raw.max_intensity = *hi;
-  return raw;
-}
-
-RawVolume read_scalar_volume(const std::string& spec) {
-  if (is_generator_spec(spec)) return dense_intensity(generate_volume(spec));
-  const std::string ext = extension(spec);
-  if (ext == ".nrrd" || ext == ".nhdr") return read_nrrd(spec);
-  if (ext == ".vdb") return dense_intensity(read_vdb(spec));
-  throw InputError(spec,
-                   "unknown volume format (expected .nrrd, .nhdr or .vdb, or a generator: "
-                   "block, sphere, four-spheres)");
-}
 
 LabelMap label_volume_to_map(const RawVolume& label_volume, const std::string& label_source,
                              const RawVolume& intensity, const std::string& intensity_name) {

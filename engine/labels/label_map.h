@@ -82,12 +82,10 @@ class LabelMap {
   std::vector<Label> labels_;
 };
 
-/// A density field sampled densely over its index box [0, dims): densities as intensities.
-RawVolume dense_intensity(const DensityField& field);
-
-/// The scalar samples of any volume the engine reads, unmapped: a NRRD's raw values, a .vdb's
-/// grid values, a generator's densities. Throws InputError naming the file.
-RawVolume read_scalar_volume(const std::string& spec);
+/// A density field sampled densely over its index box [0, dims), and the unmapped scalar
+/// samples of any volume the engine reads (engine/io/formats.h).
+using io::dense_intensity;
+using io::read_scalar_volume;
 
 /// A label volume (any volume read_scalar_volume reads) as labels over `intensity`'s grid.
 /// Throws InputError(label_spec, ...) when a value is not an integer in [0, kMaxLabel], or

@@ -1,0 +1,89 @@
+#include "engine/io/formats.h"
+
+#include <cstddef>
+
+#include "engine/errors.h"
+#include "engine/io/nrrd.h"
+#include "engine/io/text.h"
+#include "engine/io/vdb.h"
+
+namespace hapvox::engine::io {
+namespace {
+
+DensityField load_nrrd(const std::string& path, const IntensityMapping& mapping) {
+  return map_to_density(read_nrrd(path), mapping, path);
+}
+
+RawVolume read_vdb_samples(const std::string& path) { return dense_intensity(read_vdb(path)); }
+
+DensityField load_vdb(const std::string& path, const IntensityMapping&) { return read_vdb(path); }
+
+std::string no_data_file(const std::string&) { return ""; }
+
+bool ends_with(const std::string& text, const std::string& suffix) {
+  return text.size() >= suffix.size() &&
+         text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string unknown_format_message() {
+  return "unknown volume format (expected " + volume_extensions_text(", ", " or ") +
+         ", or a generator: " + generator_names_text() + ")";
+}
+
+}  // namespace
+
+const std::vector<VolumeFormat>& volume_formats() {
+  static const std::vector<VolumeFormat> formats = {
+      {"NRRD", {".nrrd", ".nhdr"}, read_nrrd, load_nrrd, write_nrrd, nrrd_data_file, true},
+      {"OpenVDB", {".vdb"}, read_vdb_samples, load_vdb, write_vdb, no_data_file, false},
+  };
+  return formats;
+}
+
+const VolumeFormat* find_volume_format(const std::string& path) {
+  const std::string name = lower(path);
+  for (const VolumeFormat& format : volume_formats()) {
+    for (const std::string& ext : format.extensions) {
+      // The extension must follow a file name, not be one: "dir/.nrrd" is no NRRD.
+      if (ends_with(name, ext) && name.size() > ext.size() &&
+          name[name.size() - ext.size() - 1] != '/') {
+        return &format;
+      }
+    }
+  }
+  return nullptr;
+}
+
+std::string volume_extensions_text(const std::string& separator, const std::string& last) {
+  std::vector<std::string> all;
+  for (const VolumeFormat& format : volume_formats()) {
+    all.insert(all.end(), format.extensions.begin(), format.extensions.end());
+  }
+  std::string text;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    text += (i == 0 ? "" : i + 1 == all.size() ? last : separator) + all[i];
+  }
+  return text;
+}
+
+std::string generator_names_text() {
+  std::string text;
+  for (const VolumeGenerator& g : volume_generators()) {
+    text += (text.empty() ? "" : ", ") + std::string(g.name);
+  }
+  return text;
+}
+
+DensityField load_volume(const std::string& spec, const IntensityMapping& mapping) {
+  if (is_generator_spec(spec)) return generate_volume(spec);
+  if (const VolumeFormat* format = find_volume_format(spec)) return format->load(spec, mapping);
+  throw InputError(spec, unknown_format_message());
+}
+
+RawVolume read_scalar_volume(const std::string& spec) {
+  if (is_generator_spec(spec)) return dense_intensity(generate_volume(spec));
+  if (const VolumeFormat* format = find_volume_format(spec)) return format->read_samples(spec);
+  throw InputError(spec, unknown_format_message());
+}
+
+}  // namespace hapvox::engine::io

@@ -1,0 +1,52 @@
+#pragma once
+// The table of volume formats and generators. Every place that names formats (load_volume,
+// the label reader, `hapvox info`, help texts, error messages, the no-overwrite check's
+// companion files) asks this table, so a new format is a new file plus one row here.
+// Extensions match case-insensitively.
+
+#include <string>
+#include <vector>
+
+#include "engine/density_field.h"
+#include "engine/io/generators.h"
+#include "engine/io/intensity.h"
+#include "engine/io/raw_volume.h"
+
+namespace hapvox::engine::io {
+
+struct VolumeFormat {
+  const char* name;                     // "NRRD"
+  std::vector<std::string> extensions;  // lower case, with the dot: ".nrrd", ".nhdr"
+  /// The samples as stored (intensities, labels or densities), dense.
+  RawVolume (*read_samples)(const std::string& path);
+  /// A density field: scanner samples through the intensity mapping, a density grid as is.
+  DensityField (*load)(const std::string& path, const IntensityMapping& mapping);
+  /// Writes a density field (nullptr: hapvox does not write the format).
+  void (*write)(const DensityField& field, const std::string& path);
+  /// Other files this file names and reads (a detached header's data file); none is "".
+  std::string (*data_file)(const std::string& path);
+  /// True when the format stores scanner samples (mapped to density on load), false when
+  /// it stores a density grid.
+  bool holds_samples;
+};
+
+/// Every format, in the order help texts list them.
+const std::vector<VolumeFormat>& volume_formats();
+
+/// The format whose extension `path` ends with (any case), or nullptr.
+const VolumeFormat* find_volume_format(const std::string& path);
+
+/// The extensions joined by `separator`, the last by `last` (".nrrd, .nhdr or .vdb").
+std::string volume_extensions_text(const std::string& separator, const std::string& last);
+
+/// The generator names joined by ", " ("block, sphere, four-spheres").
+std::string generator_names_text();
+
+/// Loads a file by its format, or runs a generator. Throws InputError(spec, "unknown volume
+/// format (...)") naming every extension and generator when neither matches.
+DensityField load_volume(const std::string& spec, const IntensityMapping& mapping);
+
+/// The dense samples of a file (as stored) or of a generator's densities.
+RawVolume read_scalar_volume(const std::string& spec);
+
+}  // namespace hapvox::engine::io

@@ -1,0 +1,394 @@
+#include "engine/io/nrrd.h"
+
+#include <bit>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <system_error>
+#include <vector>
+
+#include <zlib.h>
+
+#include "engine/check.h"
+#include "engine/errors.h"
+#include "engine/io/payload.h"
+#include "engine/io/samples.h"
+#include "engine/io/text.h"
+
+namespace hapvox::engine::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Printable excerpt of possibly binary text, for error messages.
+std::string printable(const std::string& s, std::size_t max_len = 40) {
+  std::string out;
+  for (char c : s.substr(0, max_len)) {
+    out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
+  }
+  if (s.size() > max_len) out += "...";
+  return out;
+}
+
+struct NrrdHeader {
+  std::map<std::string, std::string> fields;  // lower-case field name -> trimmed value
+  bool has_blank_line = false;                // attached data may follow
+  std::streampos data_start = 0;              // stream position just after the header
+};
+
+NrrdHeader read_header(std::istream& in, const std::string& path) {
+  NrrdHeader header;
+  // Check the magic before any getline so a large binary file is not slurped as one line.
+  char magic[8] = {};
+  in.read(magic, 8);
+  const std::string magic_str(magic, static_cast<std::size_t>(in.gcount()));
+  if (magic_str.size() < 8 || magic_str.compare(0, 7, "NRRD000") != 0 ||
+      !std::isdigit(static_cast<unsigned char>(magic_str[7]))) {
+    throw InputError(
+        path, "not a NRRD file (bad magic '" + printable(magic_str) + "', expected NRRD000N)");
+  }
+  std::string line;
+  std::getline(in, line);
+  if (!trim(line).empty()) {
+    throw InputError(path,
+                     "not a NRRD file (bad magic line '" + printable(magic_str + line) + "')");
+  }
+  constexpr std::size_t kMaxHeaderLines = 10000;
+  for (std::size_t count = 0; std::getline(in, line); ++count) {
+    if (count > kMaxHeaderLines) throw InputError(path, "header too long (no blank line)");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) {
+      header.has_blank_line = true;
+      break;
+    }
+    if (line[0] == '#') continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) {
+      throw InputError(path, "malformed header line '" + printable(line) + "'");
+    }
+    if (colon + 1 < line.size() && line[colon + 1] == '=') continue;  // key:=value pair
+    std::string key = lower(trim(line.substr(0, colon)));
+    // NRRD spells some fields two ways.
+    if (key == "datafile") key = "data file";
+    if (key == "lineskip") key = "line skip";
+    if (key == "byteskip") key = "byte skip";
+    if (key == "centerings") key = "centers";
+    if (!header.fields.emplace(key, trim(line.substr(colon + 1))).second) {
+      throw InputError(path, "field '" + key + "' appears twice");
+    }
+  }
+  header.data_start = in.tellg();
+  return header;
+}
+
+const std::string* find_field(const NrrdHeader& h, const std::string& key) {
+  const auto it = h.fields.find(key);
+  return it == h.fields.end() ? nullptr : &it->second;
+}
+
+const std::string& require_field(const NrrdHeader& h, const std::string& key,
+                                 const std::string& path) {
+  const std::string* v = find_field(h, key);
+  if (v == nullptr) throw InputError(path, "missing required field '" + key + "'");
+  return *v;
+}
+
+// Parses "(x,y,z)" into three doubles.
+bool parse_vector3(const std::string& text, Vec3d* out) {
+  const std::string t = trim(text);
+  if (t.size() < 2 || t.front() != '(' || t.back() != ')') return false;
+  std::string inner = t.substr(1, t.size() - 2);
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (true) {
+    const auto comma = inner.find(',', start);
+    parts.push_back(trim(inner.substr(start, comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (parts.size() != 3) return false;
+  for (int i = 0; i < 3; ++i) {
+    if (!parse_double(parts[static_cast<std::size_t>(i)], &(*out)[i])) return false;
+  }
+  return true;
+}
+
+// "space directions: (a,b,c) (d,e,f) none" -> the parenthesised groups and "none"s.
+std::vector<std::string> split_vectors(const std::string& text) {
+  std::vector<std::string> out;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    if (std::isspace(static_cast<unsigned char>(text[i]))) {
+      ++i;
+    } else if (text[i] == '(') {
+      const auto close = text.find(')', i);
+      if (close == std::string::npos) {
+        out.push_back(text.substr(i));
+        break;
+      }
+      out.push_back(text.substr(i, close - i + 1));
+      i = close + 1;
+    } else {
+      auto end = i;
+      while (end < text.size() && !std::isspace(static_cast<unsigned char>(text[end]))) ++end;
+      out.push_back(text.substr(i, end - i));
+      i = end;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string nrrd_data_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");
+  const NrrdHeader header = read_header(in, path);
+  const std::string* data_file = find_field(header, "data file");
+  if (data_file == nullptr || data_file->rfind("LIST", 0) == 0 ||
+      data_file->find('%') != std::string::npos || split_ws(*data_file).size() != 1) {
+    return "";
+  }
+  const fs::path file(*data_file);
+  return (file.is_relative() ? fs::path(path).parent_path() / file : file).string();
+}
+
+RawVolume read_nrrd(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");
+  const NrrdHeader header = read_header(in, path);
+
+  const std::string type_text = lower(require_field(header, "type", path));
+  const std::string type_norm = [&] {
+    std::string joined;
+    for (const auto& tok : split_ws(type_text)) joined += (joined.empty() ? "" : " ") + tok;
+    return joined;
+  }();
+  const SampleTypeInfo* type_found = find_sample_type(type_norm);
+  if (type_found == nullptr) {
+    throw InputError(path, "unsupported sample type '" + type_text + "'");
+  }
+  const SampleTypeInfo type = *type_found;
+
+  const std::string& dim_text = require_field(header, "dimension", path);
+  std::int64_t dimension = 0;
+  if (!parse_int(dim_text, &dimension)) {
+    throw InputError(path, "bad dimension '" + dim_text + "'");
+  }
+  if (dimension != 3) {
+    throw InputError(path,
+                     "dimension " + dim_text + " is not supported (only 3-D scalar volumes are)");
+  }
+
+  RawVolume raw;
+  raw.sample_type = type.name;
+  const std::string& sizes_text = require_field(header, "sizes", path);
+  const auto sizes = split_ws(sizes_text);
+  if (sizes.size() != 3)
+    throw InputError(path, "sizes must list 3 values, got '" + sizes_text + "'");
+  std::int64_t samples = 1;
+  for (int i = 0; i < 3; ++i) {
+    std::int64_t s = 0;
+    if (!parse_int(sizes[static_cast<std::size_t>(i)], &s) || s <= 0) {
+      throw InputError(path, "sizes must be positive integers, got '" + sizes_text + "'");
+    }
+    if (s > kMaxSamples || samples * s > kMaxSamples) {
+      throw InputError(path, "sizes '" + sizes_text + "' are too large (over 2^31 samples)");
+    }
+    samples *= s;
+    raw.dims[i] = static_cast<int>(s);
+  }
+
+  if (const std::string* kinds = find_field(header, "kinds")) {
+    for (const auto& kind : split_ws(lower(*kinds))) {
+      if (kind != "domain" && kind != "space" && kind != "none" && kind != "???") {
+        throw InputError(path, "axis kind '" + kind +
+                                   "' is not supported (only scalar volumes with 3 spatial "
+                                   "axes are)");
+      }
+    }
+  }
+
+  // Spacing: space directions (vector norms) win over spacings; default 1 mm.
+  if (const std::string* dirs = find_field(header, "space directions")) {
+    const auto vecs = split_vectors(*dirs);
+    if (vecs.size() != 3) {
+      throw InputError(path, "space directions must give 3 vectors, got '" + *dirs + "'");
+    }
+    for (int i = 0; i < 3; ++i) {
+      Vec3d v;
+      if (!parse_vector3(vecs[static_cast<std::size_t>(i)], &v)) {
+        throw InputError(path, "bad space direction '" + vecs[static_cast<std::size_t>(i)] +
+                                   "' (expected (x,y,z))");
+      }
+      raw.spacing_mm[i] = v.norm();
+    }
+  } else if (const std::string* spacings = find_field(header, "spacings")) {
+    const auto parts = split_ws(*spacings);
+    if (parts.size() != 3) {
+      throw InputError(path, "spacings must list 3 values, got '" + *spacings + "'");
+    }
+    for (int i = 0; i < 3; ++i) {
+      if (!parse_double(parts[static_cast<std::size_t>(i)], &raw.spacing_mm[i])) {
+        throw InputError(path, "bad spacings '" + *spacings + "'");
+      }
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(raw.spacing_mm[i]) || raw.spacing_mm[i] <= 0.0) {
+      std::ostringstream msg;
+      msg << "spacing must be positive and finite, got " << raw.spacing_mm[i] << " on axis " << i;
+      throw InputError(path, msg.str());
+    }
+  }
+  if (const std::string* origin = find_field(header, "space origin")) {
+    if (!parse_vector3(*origin, &raw.origin_mm) || !raw.origin_mm.allFinite()) {
+      throw InputError(path, "bad space origin '" + *origin + "' (expected (x,y,z))");
+    }
+  }
+
+  const std::string encoding = lower(require_field(header, "encoding", path));
+  const bool gzip = encoding == "gzip" || encoding == "gz";
+  if (!gzip && encoding != "raw") {
+    throw InputError(path, "unsupported encoding '" + encoding + "' (expected raw or gzip)");
+  }
+
+  bool swap = false;
+  if (type.size > 1) {
+    const std::string* endian = find_field(header, "endian");
+    if (endian == nullptr) throw InputError(path, "missing required field 'endian'");
+    const std::string e = lower(*endian);
+    if (e != "little" && e != "big") {
+      throw InputError(path, "bad endian '" + *endian + "' (expected little or big)");
+    }
+    swap = (e == "big") != (std::endian::native == std::endian::big);
+  }
+
+  std::int64_t line_skip = 0;
+  std::int64_t byte_skip = 0;
+  if (const std::string* v = find_field(header, "line skip")) {
+    if (!parse_int(*v, &line_skip) || line_skip < 0) {
+      throw InputError(path, "line skip must be a non-negative integer, got '" + *v + "'");
+    }
+  }
+  if (const std::string* v = find_field(header, "byte skip")) {
+    if (!parse_int(*v, &byte_skip) || byte_skip < -1) {
+      throw InputError(path, "byte skip must be a non-negative integer (or -1), got '" + *v + "'");
+    }
+  }
+
+  // Data source: a detached file, else what follows the header's blank line.
+  std::ifstream detached;
+  std::istream* data = &in;
+  if (const std::string* data_file = find_field(header, "data file")) {
+    if (data_file->rfind("LIST", 0) == 0 || data_file->find('%') != std::string::npos ||
+        split_ws(*data_file).size() != 1) {
+      throw InputError(path, "multi-file data ('data file: " + *data_file + "') is not supported");
+    }
+    fs::path file(*data_file);
+    if (file.is_relative()) file = fs::path(path).parent_path() / file;
+    detached.open(file, std::ios::binary);
+    if (!detached || fs::is_directory(file)) {
+      throw InputError(path, "cannot open data file '" + file.string() + "'");
+    }
+    data = &detached;
+  } else if (!header.has_blank_line) {
+    throw InputError(path, "no data: the header has no 'data file' field and no attached data");
+  } else {
+    in.seekg(header.data_start);
+  }
+  for (std::int64_t i = 0; i < line_skip; ++i) {
+    std::string skipped;
+    if (!std::getline(*data, skipped)) {
+      throw InputError(path, "line skip " + std::to_string(line_skip) + " runs past the end");
+    }
+  }
+
+  const auto n_bytes = static_cast<std::uint64_t>(samples) * type.size;
+  const std::vector<unsigned char> bytes =
+      gzip ? read_gzip(*data, byte_skip, n_bytes, path) : read_raw(*data, byte_skip, n_bytes, path);
+
+  raw.intensity.resize(static_cast<std::size_t>(samples));
+  decode_samples(bytes, type.type, swap, &raw.intensity, path);
+  set_min_max(&raw);
+  return raw;
+}
+
+void write_nrrd(const DensityField& field, const std::string& path) {
+  const Vec3i& dims = field.dims();
+  const auto n = static_cast<std::size_t>(dims.x()) * static_cast<std::size_t>(dims.y()) *
+                 static_cast<std::size_t>(dims.z());
+  std::vector<float> values(n);
+  {
+    auto acc = field.grid().getConstAccessor();
+    std::size_t i = 0;
+    for (int z = 0; z < dims.z(); ++z) {
+      for (int y = 0; y < dims.y(); ++y) {
+        for (int x = 0; x < dims.x(); ++x) values[i++] = acc.getValue(openvdb::Coord(x, y, z));
+      }
+    }
+  }
+
+  // gzip wrapper (15 + 16) so other tools that insist on gzip, not zlib, can read it.
+  z_stream zs{};
+  HAPVOX_CHECK_EQ(deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  const std::size_t in_bytes = n * sizeof(float);
+  std::vector<unsigned char> compressed(deflateBound(&zs, static_cast<uLong>(in_bytes)));
+  zs.next_in = reinterpret_cast<Bytef*>(values.data());
+  zs.next_out = compressed.data();
+  // Feed in chunks: avail_in/avail_out are 32-bit.
+  std::size_t fed = 0;
+  int rc = Z_OK;
+  while (rc != Z_STREAM_END) {
+    if (zs.avail_in == 0 && fed < in_bytes) {
+      const std::size_t chunk = std::min<std::size_t>(in_bytes - fed, 1u << 30);
+      zs.avail_in = static_cast<uInt>(chunk);
+      fed += chunk;
+    }
+    zs.avail_out = static_cast<uInt>(std::min<std::size_t>(
+        compressed.size() - static_cast<std::size_t>(zs.next_out - compressed.data()), 1u << 30));
+    rc = deflate(&zs, fed == in_bytes ? Z_FINISH : Z_NO_FLUSH);
+    HAPVOX_CHECK(rc == Z_OK || rc == Z_STREAM_END || rc == Z_BUF_ERROR);
+  }
+  const std::size_t out_bytes = static_cast<std::size_t>(zs.next_out - compressed.data());
+  deflateEnd(&zs);
+
+  // Space directions rather than spacings: NRRD forbids "space origin" without a space,
+  // and teem/Slicer/ITK reject spacings alongside one.
+  std::ostringstream header;
+  header.precision(17);
+  const Vec3d& s = field.voxel_size_mm();
+  const Vec3d& o = field.origin_mm();
+  header << "NRRD0004\n"
+         << "# written by hapvox: density in [0, 1]\n"
+         << "type: float\n"
+         << "dimension: 3\n"
+         << "space dimension: 3\n"
+         << "sizes: " << dims.x() << " " << dims.y() << " " << dims.z() << "\n"
+         << "space directions: (" << s.x() << ",0,0) (0," << s.y() << ",0) (0,0," << s.z() << ")\n"
+         << "kinds: domain domain domain\n"
+         << "endian: " << (std::endian::native == std::endian::big ? "big" : "little") << "\n"
+         << "encoding: gzip\n"
+         << "space origin: (" << o.x() << "," << o.y() << "," << o.z() << ")\n\n";
+
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError(path, "cannot write file");
+    const std::string h = header.str();
+    out.write(h.data(), static_cast<std::streamsize>(h.size()));
+    out.write(reinterpret_cast<const char*>(compressed.data()),
+              static_cast<std::streamsize>(out_bytes));
+    out.close();
+    if (!out) throw InputError(path, "error while writing file");
+  }
+  std::error_code ec;
+  fs::rename(partial, path, ec);
+  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
+}
+
+}  // namespace hapvox::engine::io

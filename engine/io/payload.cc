@@ -1,0 +1,111 @@
+#include "engine/io/payload.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+
+#include "engine/check.h"
+#include "engine/errors.h"
+
+namespace hapvox::engine::io {
+namespace {
+
+std::string truncated(std::uint64_t expected, std::uint64_t got) {
+  return "truncated data: expected " + std::to_string(expected) + " bytes, got " +
+         std::to_string(got);
+}
+
+}  // namespace
+
+// Reads exactly `n` payload bytes of raw encoding. byte_skip == -1 means the payload is the
+// last n bytes of the file. Sizes are checked before allocating, so a corrupt header cannot
+// make us allocate gigabytes.
+std::vector<unsigned char> read_raw(std::istream& in, std::int64_t byte_skip, std::uint64_t n,
+                                    const std::string& path) {
+  const auto pos = in.tellg();
+  in.seekg(0, std::ios::end);
+  const auto end = in.tellg();
+  std::uint64_t available = static_cast<std::uint64_t>(end - pos);
+  if (byte_skip == -1) {
+    if (available < n) throw InputError(path, truncated(n, available));
+    in.seekg(end - static_cast<std::streamoff>(n));
+  } else {
+    const auto skip = static_cast<std::uint64_t>(byte_skip);
+    available = available > skip ? available - skip : 0;
+    if (available < n) throw InputError(path, truncated(n, available));
+    // Extra bytes mean the header's sizes or type do not match the data.
+    if (available > n) {
+      throw InputError(path, "too much data: expected " + std::to_string(n) + " bytes, got " +
+                                 std::to_string(available));
+    }
+    in.seekg(pos + static_cast<std::streamoff>(skip));
+  }
+  std::vector<unsigned char> bytes(n);
+  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(n));
+  const auto got = static_cast<std::uint64_t>(in.gcount());
+  if (got < n) throw InputError(path, truncated(n, got));
+  return bytes;
+}
+
+// Inflates a gzip (or zlib) stream, skipping `byte_skip` decompressed bytes first (as teem
+// does for compressed encodings). Bytes after the end of the gzip stream are ignored.
+std::vector<unsigned char> read_gzip(std::istream& in, std::int64_t byte_skip, std::uint64_t n,
+                                     const std::string& path) {
+  if (byte_skip < 0) throw InputError(path, "byte skip -1 is only allowed with raw encoding");
+  const auto skip = static_cast<std::uint64_t>(byte_skip);
+  z_stream zs{};
+  HAPVOX_CHECK_EQ(inflateInit2(&zs, 15 + 32), Z_OK);  // 15 + 32: auto-detect gzip or zlib
+  // Grown as data arrives: a corrupt header must not make us allocate its claimed size.
+  std::vector<unsigned char> out;
+  std::vector<unsigned char> in_buf(1 << 16);
+  std::vector<unsigned char> discard(1 << 16);
+  std::uint64_t produced = 0;
+  bool ended = false;
+  std::string error;
+  while (!ended) {
+    if (zs.avail_in == 0) {
+      in.read(reinterpret_cast<char*>(in_buf.data()), static_cast<std::streamsize>(in_buf.size()));
+      const auto got = in.gcount();
+      if (got <= 0) break;
+      zs.next_in = in_buf.data();
+      zs.avail_in = static_cast<uInt>(got);
+    }
+    // Decompress into the payload when inside it, else into a scratch buffer.
+    std::uint64_t room;
+    if (produced >= skip && produced < skip + n) {
+      const std::uint64_t filled = produced - skip;
+      if (filled == out.size()) {
+        out.resize(std::min<std::uint64_t>(n, std::max<std::uint64_t>(2 * out.size(), 1 << 20)));
+      }
+      zs.next_out = out.data() + filled;
+      room = std::min<std::uint64_t>(out.size() - filled, std::uint64_t{1} << 30);
+    } else {
+      zs.next_out = discard.data();
+      room = produced < skip ? std::min<std::uint64_t>(skip - produced, discard.size())
+                             : discard.size();
+    }
+    zs.avail_out = static_cast<uInt>(room);
+    const uInt before = zs.avail_out;
+    const int rc = inflate(&zs, Z_NO_FLUSH);
+    produced += before - zs.avail_out;
+    if (rc == Z_STREAM_END) {
+      ended = true;
+    } else if (rc == Z_DATA_ERROR || rc == Z_NEED_DICT || rc == Z_MEM_ERROR ||
+               (rc == Z_BUF_ERROR && zs.avail_in > 0)) {
+      error = zs.msg != nullptr ? zs.msg : "inflate error " + std::to_string(rc);
+      break;
+    }
+  }
+  inflateEnd(&zs);
+  if (!error.empty()) throw InputError(path, "corrupt gzip data: " + error);
+  const std::uint64_t payload = produced > skip ? produced - skip : 0;
+  if (payload < n) throw InputError(path, truncated(n, payload));
+  if (payload > n) {
+    throw InputError(path, "too much data: expected " + std::to_string(n) + " bytes, got " +
+                               std::to_string(payload));
+  }
+  if (!ended) throw InputError(path, "truncated data: gzip stream ends before its end marker");
+  return out;
+}
+
+}  // namespace hapvox::engine::io

@@ -1,0 +1,211 @@
+#include "engine/io/vdb.h"
+
+#include <fcntl.h>
+#include <openvdb/io/File.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <system_error>
+
+#include "engine/errors.h"
+
+namespace hapvox::engine::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Densities a .vdb may hold: sculpted volumes exceed 1 where clay is compressed; far
+// beyond that is a corrupt or foreign grid (and would overflow the mass grid's units).
+constexpr float kMaxDensity = 1000.0f;
+
+// OpenVDB trusts its input: bytes flipped inside a grid's data can make it allocate
+// without bound, loop, or corrupt the heap rather than throw. So a .vdb is first read by a
+// child process, with its memory capped (outside sanitizer builds, whose shadow memory a
+// cap would break), a time limit and stderr silenced; only if that read succeeds is the
+// file read here. Throws InputError saying how the child's read failed.
+void check_vdb_in_child(const std::string& path) {
+#if defined(__SANITIZE_THREAD__)
+  // ThreadSanitizer kills the child of a multithreaded fork: there, read directly.
+  std::ifstream proc_status("/proc/self/status");
+  for (std::string line; std::getline(proc_status, line);) {
+    if (line.rfind("Threads:", 0) == 0 && std::stoi(line.substr(8)) > 1) return;
+  }
+#endif
+  int fds[2];
+  if (pipe(fds) != 0) return;  // no child: the read below is on its own
+  std::fflush(nullptr);
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    return;
+  }
+  if (pid == 0) {
+    close(fds[0]);
+    const int null_fd = open("/dev/null", O_WRONLY);
+    if (null_fd >= 0) dup2(null_fd, STDERR_FILENO);
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    if (pages > 0 && page > 0) {
+      const rlim_t half = static_cast<rlim_t>(pages) / 2 * static_cast<rlim_t>(page);
+      const rlimit cap{half, half};
+      setrlimit(RLIMIT_AS, &cap);
+    }
+#endif
+    std::error_code ec;
+    const auto bytes = fs::file_size(path, ec);
+    alarm(30 + static_cast<unsigned>(ec ? 0 : bytes >> 20));  // 30 s plus 1 s per MB
+    std::string message;
+    int code = 0;
+    openvdb::io::File file(path);
+    try {
+      file.open(false);
+    } catch (const std::exception& e) {
+      message = std::string("not a VDB file (") + e.what() + ")";
+      code = 2;
+    }
+    if (code == 0) {
+      try {
+        file.getGrids();
+        file.close();
+      } catch (const std::bad_alloc&) {
+        message = "corrupt or truncated VDB file (its sizes ask for more memory than exists)";
+        code = 2;
+      } catch (const std::exception& e) {
+        message = std::string("cannot read VDB grid: ") + e.what();
+        code = 2;
+      }
+    }
+    if (write(fds[1], message.data(), message.size()) < 0) code = 3;
+    _exit(code);
+  }
+  close(fds[1]);
+  std::string message;
+  char buffer[512];
+  for (ssize_t n; (n = read(fds[0], buffer, sizeof buffer)) != 0;) {
+    if (n > 0) {
+      message.append(buffer, static_cast<std::size_t>(n));
+    } else if (errno != EINTR) {
+      break;
+    }
+  }
+  close(fds[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 2) throw InputError(path, message);
+  if (WIFSIGNALED(status) && WTERMSIG(status) == SIGALRM) {
+    throw InputError(path, "corrupt or truncated VDB file (reading it did not finish)");
+  }
+  throw InputError(path, "corrupt or truncated VDB file (reading it crashed OpenVDB)");
+}
+
+}  // namespace
+
+DensityField read_vdb(const std::string& path) {
+  initialize_openvdb();
+  if (!fs::is_regular_file(path)) throw InputError(path, "cannot open file");
+  check_vdb_in_child(path);
+  openvdb::io::File file(path);
+  openvdb::FloatGrid::Ptr grid;
+  try {
+    file.open(false);  // no delayed loading: the file may be replaced while we run
+  } catch (const openvdb::Exception& e) {
+    throw InputError(path, std::string("not a VDB file (") + e.what() + ")");
+  }
+  try {
+    // Prefer a float grid named "density", else the first float grid.
+    std::optional<std::string> name;
+    const openvdb::GridPtrVecPtr metas = file.readAllGridMetadata();
+    for (const auto& meta : *metas) {
+      if (!meta->isType<openvdb::FloatGrid>()) continue;
+      if (!name || meta->getName() == "density") name = meta->getName();
+      if (*name == "density") break;
+    }
+    if (name) grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(*name));
+    file.close();
+  } catch (const openvdb::Exception& e) {
+    throw InputError(path, std::string("cannot read VDB grid: ") + e.what());
+  } catch (const std::exception& e) {
+    throw InputError(path, std::string("corrupt or truncated VDB file (") + e.what() + ")");
+  }
+  if (grid == nullptr) {
+    throw InputError(path, "no float grid (expected a grid named \"density\")");
+  }
+  if (grid->getGridClass() == openvdb::GRID_LEVEL_SET) {
+    throw InputError(
+        path, "grid \"" + grid->getName() + "\" is a level set, not a density (fog volume) grid");
+  }
+  if (grid->background() != 0.0f) {
+    throw InputError(path, "grid \"" + grid->getName() + "\" has background " +
+                               std::to_string(grid->background()) + ", expected 0");
+  }
+  for (auto it = grid->cbeginValueOn(); it; ++it) {
+    if (!std::isfinite(*it)) throw InputError(path, "grid contains NaN or infinite values");
+    if (*it < 0.0f || *it > kMaxDensity) {
+      throw InputError(path, "grid contains density " + std::to_string(*it) + " outside [0, " +
+                                 std::to_string(static_cast<int>(kMaxDensity)) +
+                                 "] (1 is the normal density)");
+    }
+  }
+  const openvdb::math::Transform& xform = grid->transform();
+  if (!xform.isLinear()) throw InputError(path, "grid transform is not linear");
+  const openvdb::Vec3d vs = xform.voxelSize();
+  const openvdb::Vec3d origin = xform.indexToWorld(openvdb::Vec3d(0.0));
+  const Vec3d voxel_size(vs.x(), vs.y(), vs.z());
+  if (!voxel_size.allFinite() || voxel_size.minCoeff() <= 0.0) {
+    throw InputError(path, "grid voxel size must be positive");
+  }
+
+  Vec3i dims;
+  if (auto meta = grid->getMetadata<openvdb::Vec3IMetadata>("hapvox_dims")) {
+    const openvdb::Vec3i d = meta->value();
+    dims = Vec3i(d.x(), d.y(), d.z());
+    if (dims.minCoeff() <= 0) throw InputError(path, "hapvox_dims metadata must be positive");
+  } else {
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    if (box.empty()) throw InputError(path, "grid \"" + grid->getName() + "\" is empty");
+    dims = Vec3i(std::max(1, box.max().x() + 1), std::max(1, box.max().y() + 1),
+                 std::max(1, box.max().z() + 1));
+  }
+  return DensityField(grid, voxel_size, Vec3d(origin.x(), origin.y(), origin.z()), dims);
+}
+
+void write_vdb(const DensityField& field, const std::string& path) {
+  initialize_openvdb();
+  // A new grid sharing the field's tree, so naming and metadata do not touch the field.
+  auto grid = openvdb::FloatGrid::create(field.grid_ptr()->treePtr());
+  grid->setName("density");
+  grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+  const Vec3d& s = field.voxel_size_mm();
+  const Vec3d& o = field.origin_mm();
+  grid->setTransform(
+      std::make_shared<openvdb::math::Transform>(std::make_shared<openvdb::math::ScaleTranslateMap>(
+          openvdb::Vec3d(s.x(), s.y(), s.z()), openvdb::Vec3d(o.x(), o.y(), o.z()))));
+  const Vec3i& d = field.dims();
+  grid->insertMeta("hapvox_dims", openvdb::Vec3IMetadata(openvdb::Vec3i(d.x(), d.y(), d.z())));
+
+  const std::string partial = path + ".partial";
+  try {
+    openvdb::io::File file(partial);
+    file.write(openvdb::GridCPtrVec{grid});
+    file.close();
+  } catch (const openvdb::Exception& e) {
+    throw InputError(path, std::string("cannot write file: ") + e.what());
+  }
+  std::error_code ec;
+  fs::rename(partial, path, ec);
+  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
+}
+
+}  // namespace hapvox::engine::io

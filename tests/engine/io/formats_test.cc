@@ -1,0 +1,103 @@
+#include "engine/volume_io.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "engine/errors.h"
+#include "engine/io/io_test_util.h"
+#include "test_data.h"
+
+namespace hapvox::engine {
+namespace {
+
+using ::hapvox::testing::source_path;
+using namespace ::hapvox::engine::io_test;  // NOLINT(build/namespaces)
+
+// ---- real data -----------------------------------------------------------------------
+
+TEST(VolumeIoRealData, EngineBlockLoads) {
+  const std::string path = source_path("data/engine_256x256x128_uint8.nrrd");
+  const RawVolume raw = read_nrrd(path);
+  EXPECT_EQ(raw.dims, Vec3i(256, 256, 128));
+  EXPECT_EQ(raw.spacing_mm, Vec3d(1, 1, 1));
+  EXPECT_EQ(raw.origin_mm, Vec3d::Zero());
+  EXPECT_EQ(raw.sample_type, "uint8");
+  ASSERT_EQ(raw.intensity.size(), 256u * 256u * 128u);
+  EXPECT_EQ(raw.min_intensity, 0.0);
+  EXPECT_EQ(raw.max_intensity, 255.0);
+  EXPECT_LT(raw.intensity[0], 16.0f);  // corner is air
+
+  // Air sits below 16, the metal around 128..160: Otsu must split them.
+  const double t = otsu_threshold(raw);
+  EXPECT_GT(t, 16.0);
+  EXPECT_LT(t, 128.0);
+
+  const DensityField field = map_to_density(raw, IntensityMapping{}, path);
+  EXPECT_EQ(field.dims(), raw.dims);
+  EXPECT_EQ(field.voxel_size_mm(), raw.spacing_mm);
+  expect_densities_in_unit_range(field);
+  EXPECT_FALSE(field.grid().tree().isValueOn(openvdb::Coord(0, 0, 0)));
+  EXPECT_EQ(field.active_voxel_count(), count_at_least(raw, t));
+  EXPECT_GT(field.active_voxel_count(), 100000u);
+}
+
+TEST(VolumeIoRealData, HeadsqLoads) {
+  const std::string path = source_path("data/headsq_64x64x93_uint16.nrrd");
+  const RawVolume raw = read_nrrd(path);
+  EXPECT_EQ(raw.dims, Vec3i(64, 64, 93));
+  EXPECT_EQ(raw.spacing_mm, Vec3d(3.2, 3.2, 1.5));
+  EXPECT_EQ(raw.sample_type, "uint16");
+  ASSERT_EQ(raw.intensity.size(), 64u * 64u * 93u);
+  EXPECT_GE(raw.min_intensity, 0.0);
+  EXPECT_LT(raw.intensity[0], 200.0f);   // air ~0
+  EXPECT_GT(raw.max_intensity, 1150.0);  // bone
+  EXPECT_LT(raw.max_intensity, 32768.0);
+  // Skin (~500) and bone (~1150) are both present, bone being the rarer.
+  const std::size_t skin = count_at_least(raw, 500.0);
+  const std::size_t bone = count_at_least(raw, 1150.0);
+  EXPECT_GT(bone, 1000u);
+  EXPECT_GT(skin, bone);
+
+  const double t = otsu_threshold(raw);
+  EXPECT_GT(t, 200.0);
+  EXPECT_LT(t, 1000.0);
+
+  const DensityField bone_field =
+      map_to_density(raw, {IntensityMapping::Kind::kThreshold, 1150.0, 0.0}, path);
+  EXPECT_EQ(bone_field.active_voxel_count(), bone);
+  expect_densities_in_unit_range(bone_field);
+
+  const DensityField window =
+      map_to_density(raw, {IntensityMapping::Kind::kWindow, 0.0, 1150.0}, path);
+  expect_densities_in_unit_range(window);
+  EXPECT_EQ(window.voxel_size_mm(), Vec3d(3.2, 3.2, 1.5));
+  bool fractional = false;
+  for (auto it = window.grid().cbeginValueOn(); it && !fractional; ++it) fractional = *it < 0.9f;
+  EXPECT_TRUE(fractional);
+  EXPECT_EQ(window.active_voxel_count(), count_at_least(raw, 1e-3));
+}
+
+TEST(VolumeIoLoad, DispatchesByExtensionAndRejectsUnknown) {
+  const DensityField gen = load_volume("block:dims=8", {});
+  EXPECT_EQ(gen.active_voxel_count(), 8u * 8u * 4u);
+
+  const std::string dir = scratch_dir();
+  write_file(dir + "/v.NRRD", make_nrrd(basic_fields(), kEightBytes));
+  EXPECT_EQ(load_volume(dir + "/v.NRRD", {IntensityMapping::Kind::kThreshold, 5.0, 0.0})
+                .active_voxel_count(),
+            4u);
+
+  write_file(dir + "/v.raw", kEightBytes);
+  const std::string problem = "unknown volume format (expected .nrrd, .nhdr or .vdb";
+  expect_input_error([&] { load_volume(dir + "/v.raw", {}); }, dir + "/v.raw", problem);
+  expect_input_error([&] { load_volume(dir + "/missing.tiff", {}); }, dir + "/missing.tiff",
+                     problem);
+  expect_input_error([&] { load_volume("cube:dims=3", {}); }, "cube:dims=3", problem);
+}
+
+}  // namespace
+}  // namespace hapvox::engine
