@@ -82,6 +82,7 @@ MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
       voxel_size_mm_(field.voxel_size_mm()),
       origin_mm_(field.origin_mm()),
       dims_(field.dims()),
+      direction_(field.direction()),
       normal_units_(normal_density_units(options.normal_density)),
       threshold_units_(static_cast<std::int32_t>(
           std::floor(normal_units_ * (1.0 + std::max(0.0, options.tolerance))))),
@@ -151,16 +152,18 @@ bool MassGrid::inside_tool(const openvdb::Coord& ijk) const {
 std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
   const double radius = change.radius_mm;
   HAPVOX_CHECK_GT(radius, 0.0);
-  // Work in index space scaled back to mm per axis (voxels may be anisotropic).
-  tool_from_index_ = (change.from_mm - origin_mm_).cwiseQuotient(voxel_size_mm_);
-  tool_to_index_ = (change.position_mm - origin_mm_).cwiseQuotient(voxel_size_mm_);
+  // Work in index space scaled back to mm per axis (voxels may be anisotropic), in the grid
+  // frame: the world offsets from the origin turned onto the index axes.
+  const Mat3d to_grid = direction_.transpose();
+  const Vec3d a = to_grid * (change.from_mm - origin_mm_);
+  const Vec3d b = to_grid * (change.position_mm - origin_mm_);
+  tool_from_index_ = a.cwiseQuotient(voxel_size_mm_);
+  tool_to_index_ = b.cwiseQuotient(voxel_size_mm_);
   tool_radius_mm_ = radius;
   has_tool_ = true;
   for (const openvdb::Coord& ijk : walled_in_) activate_if_over(ijk, accessor_.getValue(ijk));
   walled_in_.clear();
-  const Vec3d a = change.from_mm - origin_mm_;
-  const Vec3d b = change.position_mm - origin_mm_;
-  const Vec3d dir = change.direction.normalized();
+  const Vec3d dir = (to_grid * change.direction).normalized();
   const double step_mm = 0.5 * voxel_size_mm_.minCoeff();
   // Voxels the tool's surface crosses are covered in part: the sweep reaches half a
   // voxel diagonal beyond the radius.
@@ -463,7 +466,7 @@ DensityField MassGrid::to_density_field() const {
       grid->tree().fill(box, rho, true);
     }
   }
-  return DensityField(grid, voxel_size_mm_, origin_mm_, dims_);
+  return DensityField(grid, voxel_size_mm_, origin_mm_, dims_, direction_);
 }
 
 }  // namespace hapvox::engine

@@ -165,6 +165,7 @@ class MassGrid {
   Vec3d voxel_size_mm_;
   Vec3d origin_mm_;
   Vec3i dims_;
+  Mat3d direction_;  // world directions of the index axes (DensityField)
   std::int32_t normal_units_;
   std::int32_t threshold_units_;
   RelaxRule rule_;

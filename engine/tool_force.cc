@@ -97,6 +97,8 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
   hertz_length_factor_ = 0.75 * (1.0 - nu * nu);
   surface_density_ = static_cast<float>(options.surface_density);
   const Vec3d voxel = field.voxel_size_mm();
+  const Mat3d to_grid = field.direction().transpose();  // world -> grid frame
+  // A sphere reaches radius / voxel along every index axis, however the grid is turned.
   tool_radius_index_ = Vec3d::Constant(radius_mm).cwiseQuotient(voxel);
 
   // Fibonacci lattice: near-uniform points of equal area, so every sample weighs
@@ -117,7 +119,7 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
   std::vector<int> order(count);
   std::iota(order.begin(), order.end(), 0);
   auto cell = [&](int i) {
-    const Vec3d q = (normals[i] * radius_mm).cwiseQuotient(voxel) / 4.0;
+    const Vec3d q = (to_grid * normals[i] * radius_mm).cwiseQuotient(voxel) / 4.0;
     return std::array<int, 3>{int(std::floor(q.z())), int(std::floor(q.y())),
                               int(std::floor(q.x()))};
   };
@@ -125,7 +127,9 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
   sample_offsets_index_.reserve(count);
   sample_normals_.reserve(count);
   for (int i : order) {
-    sample_offsets_index_.push_back((normals[i] * radius_mm).cwiseQuotient(voxel).cast<float>());
+    // Offsets in index space, normals in world: the force comes out in world.
+    sample_offsets_index_.push_back(
+        (to_grid * normals[i] * radius_mm).cwiseQuotient(voxel).cast<float>());
     sample_normals_.push_back(normals[i].cast<float>());
   }
 
@@ -434,7 +438,7 @@ ContactIntegral ToolForceModel::integrate_contact_naive(const Vec3d& center_mm,
     for (int j = lo.y(); j <= hi.y(); ++j) {
       for (int k = lo.z(); k <= hi.z(); ++k) {
         const float rho = s.accessor().getValue(openvdb::Coord(i, j, k));
-        const Vec3d r = (Vec3d(i, j, k) - c).cwiseProduct(voxel);
+        const Vec3d r = field_->direction() * (Vec3d(i, j, k) - c).cwiseProduct(voxel);
         const double dist = r.norm();
         if (rho > 0.0f && std::abs(dist - radius_mm) <= 0.5 * shell_mm && dist > 0.0) {
           result.area_vector_mm2 += rho * area_per_voxel * (r / dist);

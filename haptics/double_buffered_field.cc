@@ -8,7 +8,7 @@ namespace {
 
 engine::DensityField deep_copy(const engine::DensityField& field) {
   return engine::DensityField(field.grid().deepCopy(), field.voxel_size_mm(), field.origin_mm(),
-                              field.dims());
+                              field.dims(), field.direction());
 }
 
 }  // namespace

@@ -23,8 +23,9 @@ DenseVolume dense_copy(const engine::DensityField& field) {
   DenseVolume volume;
   volume.dims = field.dims();
   volume.voxel_mm = field.voxel_size_mm();
-  volume.lo_mm = field.world_min_mm();
-  volume.hi_mm = field.world_max_mm();
+  // The renderer draws the volume's grid frame (engine/density_field.h).
+  volume.lo_mm = field.grid_min_mm();
+  volume.hi_mm = field.grid_max_mm();
   volume.density.assign(volume.voxel_count(), 0.0f);
   // Leaf-wise copy of the active voxels inside [0, dims).
   for (auto leaf = field.grid().tree().cbeginLeaf(); leaf; ++leaf) {

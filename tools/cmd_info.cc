@@ -27,6 +27,11 @@ void print_field(const engine::DensityField& field) {
   std::printf("  dims             %d x %d x %d voxels\n", d.x(), d.y(), d.z());
   std::printf("  voxel size       %g x %g x %g mm\n", v.x(), v.y(), v.z());
   std::printf("  origin           %g, %g, %g mm (centre of voxel 0,0,0)\n", o.x(), o.y(), o.z());
+  const auto& r = field.direction();
+  // + 0.0: no "-0" for a flipped axis's zero components.
+  std::printf("  direction        i (%g, %g, %g), j (%g, %g, %g), k (%g, %g, %g) in LPS\n",
+              r(0, 0) + 0.0, r(1, 0) + 0.0, r(2, 0) + 0.0, r(0, 1) + 0.0, r(1, 1) + 0.0,
+              r(2, 1) + 0.0, r(0, 2) + 0.0, r(1, 2) + 0.0, r(2, 2) + 0.0);
   const auto lo = field.world_min_mm();
   const auto hi = field.world_max_mm();
   std::printf("  extent           [%g, %g] x [%g, %g] x [%g, %g] mm\n", lo.x(), hi.x(), lo.y(),
@@ -42,11 +47,18 @@ void info_volume(const InfoFlags& f) {
   const engine::io::VolumeFormat* format = engine::io::find_volume_format(f.path);
   if (format != nullptr && format->holds_samples && !engine::is_generator_spec(f.path)) {
     const engine::RawVolume raw = format->read_samples(f.path);
-    std::printf("%s: %s volume, %s samples\n", f.path.c_str(), format->name,
-                raw.sample_type.c_str());
-    std::printf("  intensity        %g .. %g (Otsu threshold %g)\n", raw.min_intensity,
-                raw.max_intensity, engine::otsu_threshold(raw));
-    print_field(engine::map_to_density(raw, f.mapping.resolve(), f.path));
+    if (raw.holds_density) {
+      // Written by hapvox: densities, read back as they are.
+      std::printf("%s: %s volume, %s densities written by hapvox\n", f.path.c_str(), format->name,
+                  raw.sample_type.c_str());
+      std::printf("  density          %g .. %g\n", raw.min_intensity, raw.max_intensity);
+    } else {
+      std::printf("%s: %s volume, %s samples\n", f.path.c_str(), format->name,
+                  raw.sample_type.c_str());
+      std::printf("  intensity        %g .. %g (Otsu threshold %g)\n", raw.min_intensity,
+                  raw.max_intensity, engine::otsu_threshold(raw));
+    }
+    print_field(engine::io::load_samples(raw, f.mapping.resolve(), f.path));
     return;
   }
   const engine::DensityField field = engine::load_volume(f.path, f.mapping.resolve());

@@ -163,6 +163,12 @@ ProxyInputs proxy_inputs_from_cli(const std::string& volume_spec, const FemCliOp
       parse_picks(options.pick, static_cast<int>(source.seeds.size()) + 1);
   if (options.seed_tolerance >= 0) source.seed_tolerance = options.seed_tolerance;
   const engine::RawVolume intensity = engine::labels::read_scalar_volume(volume_spec);
+  if (intensity.direction != engine::Mat3d::Identity()) {
+    // Labels, mesh and FEM are axis-aligned; turning tools into their frame is not done yet.
+    throw InputError(volume_spec,
+                     "the proxy-FEM model needs a volume whose index axes are world x, y, z "
+                     "(this one's direction cosines are not the identity)");
+  }
   for (const auto& seed : seeds_from_picks(intensity, volume_spec, options.pick, picks)) {
     source.seeds.push_back(seed);
   }

@@ -18,6 +18,7 @@ namespace hapvox::cli {
 void add_render_command(CLI::App& app);          // tools/cmd_render.cc
 void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
 void add_mesh_command(CLI::App& app);            // tools/cmd_mesh.cc
+void add_convert_command(CLI::App& app);         // tools/cmd_convert.cc
 }  // namespace hapvox::cli
 
 namespace {
@@ -83,6 +84,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_render_command(app);
   hapvox::cli::add_validate_command(app);
   hapvox::cli::add_mesh_command(app);
+  hapvox::cli::add_convert_command(app);
   try {
     check_command_names(app, argc, argv);
     app.parse(argc, argv);

@@ -117,7 +117,7 @@ FrameRecorder::FrameRecorder(const engine::DensityField& field, const RenderSetu
   if (fs::exists(dir_) && !fs::is_directory(dir_)) {
     throw InputError(dir_, "exists and is not a directory");
   }
-  camera_ = render::OrbitCamera::framing(field.world_min_mm(), field.world_max_mm(),
+  camera_ = render::OrbitCamera::framing(field.grid_min_mm(), field.grid_max_mm(),
                                          setup.azimuth_deg, setup.elevation_deg);
   if (on_render_thread) {
     render::GlContext probe;  // a missing EGL fails here, before any output
@@ -183,10 +183,11 @@ render::Image FrameRecorder::render_now(const haptics::RenderToolState& tool,
                                         render::FrameStats* stats) {
   render::ToolPose pose;
   if (tool.tick >= 0) {
-    pose.center_mm = tool.center_mm;
+    // The renderer draws the grid frame; the tool moves in world.
+    pose.center_mm = field_.world_to_grid(tool.center_mm);
     pose.radius_mm = tool_radius_mm_;
     if (!resampler_) {  // the FFD's press; the proxy mesh's deformation is in the texture
-      pose.displacement_mm = tool.displacement_mm;
+      pose.displacement_mm = field_.direction().transpose() * tool.displacement_mm;
       pose.in_contact = tool.in_contact;
     }
   }

@@ -3,6 +3,8 @@
 #include <cstddef>
 
 #include "engine/errors.h"
+#include "engine/io/metaimage.h"
+#include "engine/io/nifti.h"
 #include "engine/io/nrrd.h"
 #include "engine/io/text.h"
 #include "engine/io/vdb.h"
@@ -11,7 +13,15 @@ namespace hapvox::engine::io {
 namespace {
 
 DensityField load_nrrd(const std::string& path, const IntensityMapping& mapping) {
-  return map_to_density(read_nrrd(path), mapping, path);
+  return load_samples(read_nrrd(path), mapping, path);
+}
+
+DensityField load_metaimage(const std::string& path, const IntensityMapping& mapping) {
+  return load_samples(read_metaimage(path), mapping, path);
+}
+
+DensityField load_nifti(const std::string& path, const IntensityMapping& mapping) {
+  return load_samples(read_nifti(path), mapping, path);
 }
 
 RawVolume read_vdb_samples(const std::string& path) { return dense_intensity(read_vdb(path)); }
@@ -34,8 +44,24 @@ std::string unknown_format_message() {
 
 const std::vector<VolumeFormat>& volume_formats() {
   static const std::vector<VolumeFormat> formats = {
-      {"NRRD", {".nrrd", ".nhdr"}, read_nrrd, load_nrrd, write_nrrd, nrrd_data_file, true},
-      {"OpenVDB", {".vdb"}, read_vdb_samples, load_vdb, write_vdb, no_data_file, false},
+      {"NRRD", {".nrrd", ".nhdr"}, read_nrrd, load_nrrd, write_nrrd, nrrd_data_file, nullptr, true},
+      {"OpenVDB", {".vdb"}, read_vdb_samples, load_vdb, write_vdb, no_data_file, nullptr, false},
+      {"MetaImage",
+       {".mha", ".mhd"},
+       read_metaimage,
+       load_metaimage,
+       write_metaimage,
+       metaimage_data_file,
+       metaimage_written_data_file,
+       true},
+      {"NIfTI",
+       {".nii", ".nii.gz", ".hdr"},
+       read_nifti,
+       load_nifti,
+       write_nifti,
+       nifti_data_file,
+       nullptr,
+       true},
   };
   return formats;
 }
@@ -52,6 +78,10 @@ const VolumeFormat* find_volume_format(const std::string& path) {
     }
   }
   return nullptr;
+}
+
+std::string companion_output(const VolumeFormat& format, const std::string& path) {
+  return format.written_data_file == nullptr ? "" : format.written_data_file(path);
 }
 
 std::string volume_extensions_text(const std::string& separator, const std::string& last) {

@@ -25,6 +25,8 @@ struct VolumeFormat {
   void (*write)(const DensityField& field, const std::string& path);
   /// Other files this file names and reads (a detached header's data file); none is "".
   std::string (*data_file)(const std::string& path);
+  /// The data file `write` writes beside PATH (a .mhd's NAME.zraw), or "" for none.
+  std::string (*written_data_file)(const std::string& path);
   /// True when the format stores scanner samples (mapped to density on load), false when
   /// it stores a density grid.
   bool holds_samples;
@@ -35,6 +37,9 @@ const std::vector<VolumeFormat>& volume_formats();
 
 /// The format whose extension `path` ends with (any case), or nullptr.
 const VolumeFormat* find_volume_format(const std::string& path);
+
+/// format.written_data_file(path), "" when the format has none.
+std::string companion_output(const VolumeFormat& format, const std::string& path);
 
 /// The extensions joined by `separator`, the last by `last` (".nrrd, .nhdr or .vdb").
 std::string volume_extensions_text(const std::string& separator, const std::string& last);

@@ -77,7 +77,26 @@ DensityField map_to_density(const RawVolume& raw, const IntensityMapping& mappin
         mapping.kind == IntensityMapping::Kind::kAuto ? otsu_threshold(raw) : mapping.low;
     grid = build_grid(dims, [&](int x, int y, int z) { return at(x, y, z) >= t ? 1.0f : 0.0f; });
   }
-  return DensityField(grid, raw.spacing_mm, raw.origin_mm, dims);
+  return DensityField(grid, raw.spacing_mm, raw.origin_mm, dims, raw.direction);
+}
+
+DensityField load_samples(const RawVolume& raw, const IntensityMapping& mapping,
+                          const std::string& source_name) {
+  if (!raw.holds_density) return map_to_density(raw, mapping, source_name);
+  // Sculpted clay exceeds 1 where compressed; far beyond is a corrupt or foreign file.
+  constexpr float kMaxDensity = 1000.0f;
+  if (raw.min_intensity < 0.0 || raw.max_intensity > kMaxDensity) {
+    throw InputError(source_name, "density file holds densities outside [0, 1000] (" +
+                                      std::to_string(raw.min_intensity) + " .. " +
+                                      std::to_string(raw.max_intensity) + ")");
+  }
+  const std::size_t nx = static_cast<std::size_t>(raw.dims.x());
+  const std::size_t nxy = nx * static_cast<std::size_t>(raw.dims.y());
+  auto grid = build_grid(raw.dims, [&](int x, int y, int z) {
+    return raw.intensity[static_cast<std::size_t>(z) * nxy + static_cast<std::size_t>(y) * nx +
+                         static_cast<std::size_t>(x)];
+  });
+  return DensityField(grid, raw.spacing_mm, raw.origin_mm, raw.dims, raw.direction);
 }
 
 }  // namespace hapvox::engine::io

@@ -22,6 +22,13 @@ struct IntensityMapping {
 DensityField map_to_density(const RawVolume& raw, const IntensityMapping& mapping,
                             const std::string& source_name);
 
+/// A volume as a density field: a density file hapvox wrote (raw.holds_density) as stored,
+/// each sample its voxel's density, so sculpt, save, reload keeps the mass bit for bit;
+/// scanner samples through `mapping`. Throws InputError(source_name, ...) on a density file
+/// with densities outside [0, 1000].
+DensityField load_samples(const RawVolume& raw, const IntensityMapping& mapping,
+                          const std::string& source_name);
+
 /// Otsu's threshold of the intensities (256-bin histogram between min and max).
 double otsu_threshold(const RawVolume& raw);
 

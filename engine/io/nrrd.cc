@@ -15,6 +15,7 @@
 
 #include "engine/check.h"
 #include "engine/errors.h"
+#include "engine/io/direction.h"
 #include "engine/io/payload.h"
 #include "engine/io/samples.h"
 #include "engine/io/text.h"
@@ -36,6 +37,7 @@ std::string printable(const std::string& s, std::size_t max_len = 40) {
 
 struct NrrdHeader {
   std::map<std::string, std::string> fields;  // lower-case field name -> trimmed value
+  std::map<std::string, std::string> values;  // key:=value pairs, key as written
   bool has_blank_line = false;                // attached data may follow
   std::streampos data_start = 0;              // stream position just after the header
 };
@@ -70,7 +72,10 @@ NrrdHeader read_header(std::istream& in, const std::string& path) {
     if (colon == std::string::npos) {
       throw InputError(path, "malformed header line '" + printable(line) + "'");
     }
-    if (colon + 1 < line.size() && line[colon + 1] == '=') continue;  // key:=value pair
+    if (colon + 1 < line.size() && line[colon + 1] == '=') {  // key:=value pair
+      header.values[line.substr(0, colon)] = line.substr(colon + 2);
+      continue;
+    }
     std::string key = lower(trim(line.substr(0, colon)));
     // NRRD spells some fields two ways.
     if (key == "datafile") key = "data file";
@@ -226,6 +231,10 @@ RawVolume read_nrrd(const std::string& path) {
                                    "' (expected (x,y,z))");
       }
       raw.spacing_mm[i] = v.norm();
+      if (raw.spacing_mm[i] > 0.0) raw.direction.col(i) = v / raw.spacing_mm[i];
+    }
+    if (const std::string problem = direction_problem(raw.direction); !problem.empty()) {
+      throw InputError(path, "space directions are " + problem);
     }
   } else if (const std::string* spacings = find_field(header, "spacings")) {
     const auto parts = split_ws(*spacings);
@@ -249,6 +258,26 @@ RawVolume read_nrrd(const std::string& path) {
     if (!parse_vector3(*origin, &raw.origin_mm) || !raw.origin_mm.allFinite()) {
       throw InputError(path, "bad space origin '" + *origin + "' (expected (x,y,z))");
     }
+  }
+  if (const std::string* space = find_field(header, "space")) {
+    // Into LPS: a RAS vector (x right, y anterior) is (-x, -y, z) in LPS, a LAS one (x, -y, z).
+    const std::string s = lower(*space);
+    Vec3d flip = Vec3d::Ones();
+    if (s == "right-anterior-superior" || s == "ras") {
+      flip = Vec3d(-1, -1, 1);
+    } else if (s == "left-anterior-superior" || s == "las") {
+      flip = Vec3d(1, -1, 1);
+    } else if (s != "left-posterior-superior" && s != "lps" && s != "scanner-xyz" &&
+               s != "3d-right-handed" && s != "3d-left-handed") {
+      throw InputError(path, "space '" + printable(*space) +
+                                 "' is not supported (expected a 3-D space such as "
+                                 "left-posterior-superior or right-anterior-superior)");
+    }
+    raw.direction = flip.asDiagonal() * raw.direction;
+    raw.origin_mm = flip.cwiseProduct(raw.origin_mm);
+  }
+  if (const auto it = header.values.find("hapvox_content"); it != header.values.end()) {
+    raw.holds_density = trim(it->second) == "density";
   }
 
   const std::string encoding = lower(require_field(header, "encoding", path));
@@ -320,42 +349,10 @@ RawVolume read_nrrd(const std::string& path) {
 
 void write_nrrd(const DensityField& field, const std::string& path) {
   const Vec3i& dims = field.dims();
-  const auto n = static_cast<std::size_t>(dims.x()) * static_cast<std::size_t>(dims.y()) *
-                 static_cast<std::size_t>(dims.z());
-  std::vector<float> values(n);
-  {
-    auto acc = field.grid().getConstAccessor();
-    std::size_t i = 0;
-    for (int z = 0; z < dims.z(); ++z) {
-      for (int y = 0; y < dims.y(); ++y) {
-        for (int x = 0; x < dims.x(); ++x) values[i++] = acc.getValue(openvdb::Coord(x, y, z));
-      }
-    }
-  }
-
-  // gzip wrapper (15 + 16) so other tools that insist on gzip, not zlib, can read it.
-  z_stream zs{};
-  HAPVOX_CHECK_EQ(deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
-  const std::size_t in_bytes = n * sizeof(float);
-  std::vector<unsigned char> compressed(deflateBound(&zs, static_cast<uLong>(in_bytes)));
-  zs.next_in = reinterpret_cast<Bytef*>(values.data());
-  zs.next_out = compressed.data();
-  // Feed in chunks: avail_in/avail_out are 32-bit.
-  std::size_t fed = 0;
-  int rc = Z_OK;
-  while (rc != Z_STREAM_END) {
-    if (zs.avail_in == 0 && fed < in_bytes) {
-      const std::size_t chunk = std::min<std::size_t>(in_bytes - fed, 1u << 30);
-      zs.avail_in = static_cast<uInt>(chunk);
-      fed += chunk;
-    }
-    zs.avail_out = static_cast<uInt>(std::min<std::size_t>(
-        compressed.size() - static_cast<std::size_t>(zs.next_out - compressed.data()), 1u << 30));
-    rc = deflate(&zs, fed == in_bytes ? Z_FINISH : Z_NO_FLUSH);
-    HAPVOX_CHECK(rc == Z_OK || rc == Z_STREAM_END || rc == Z_BUF_ERROR);
-  }
-  const std::size_t out_bytes = static_cast<std::size_t>(zs.next_out - compressed.data());
-  deflateEnd(&zs);
+  // gzip wrapper so other tools that insist on gzip, not zlib, can read it.
+  const std::vector<float> values = dense_floats(field);
+  const std::vector<unsigned char> compressed =
+      deflate_bytes(values.data(), values.size() * sizeof(float), /*gzip=*/true);
 
   // Space directions rather than spacings: NRRD forbids "space origin" without a space,
   // and teem/Slicer/ITK reject spacings alongside one.
@@ -367,28 +364,22 @@ void write_nrrd(const DensityField& field, const std::string& path) {
          << "# written by hapvox: density in [0, 1]\n"
          << "type: float\n"
          << "dimension: 3\n"
-         << "space dimension: 3\n"
+         << "space: left-posterior-superior\n"
          << "sizes: " << dims.x() << " " << dims.y() << " " << dims.z() << "\n"
-         << "space directions: (" << s.x() << ",0,0) (0," << s.y() << ",0) (0,0," << s.z() << ")\n"
+         << "space directions:";
+  for (int a = 0; a < 3; ++a) {
+    const Vec3d step = field.direction().col(a) * s[a];
+    header << " (" << step.x() << "," << step.y() << "," << step.z() << ")";
+  }
+  header << "\n"
          << "kinds: domain domain domain\n"
          << "endian: " << (std::endian::native == std::endian::big ? "big" : "little") << "\n"
          << "encoding: gzip\n"
-         << "space origin: (" << o.x() << "," << o.y() << "," << o.z() << ")\n\n";
+         << "space origin: (" << o.x() << "," << o.y() << "," << o.z() << ")\n"
+         << "hapvox_content:=density\n\n";
 
-  const std::string partial = path + ".partial";
-  {
-    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(path, "cannot write file");
-    const std::string h = header.str();
-    out.write(h.data(), static_cast<std::streamsize>(h.size()));
-    out.write(reinterpret_cast<const char*>(compressed.data()),
-              static_cast<std::streamsize>(out_bytes));
-    out.close();
-    if (!out) throw InputError(path, "error while writing file");
-  }
-  std::error_code ec;
-  fs::rename(partial, path, ec);
-  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
+  const std::string h = header.str();
+  write_file_atomically(path, {{h.data(), h.size()}, {compressed.data(), compressed.size()}});
 }
 
 }  // namespace hapvox::engine::io

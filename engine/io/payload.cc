@@ -3,6 +3,9 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
 
 #include "engine/check.h"
 #include "engine/errors.h"
@@ -106,6 +109,65 @@ std::vector<unsigned char> read_gzip(std::istream& in, std::int64_t byte_skip, s
   }
   if (!ended) throw InputError(path, "truncated data: gzip stream ends before its end marker");
   return out;
+}
+
+std::vector<float> dense_floats(const DensityField& field) {
+  const Vec3i& dims = field.dims();
+  std::vector<float> values(static_cast<std::size_t>(dims.x()) *
+                            static_cast<std::size_t>(dims.y()) *
+                            static_cast<std::size_t>(dims.z()));
+  auto acc = field.grid().getConstAccessor();
+  std::size_t i = 0;
+  for (int z = 0; z < dims.z(); ++z) {
+    for (int y = 0; y < dims.y(); ++y) {
+      for (int x = 0; x < dims.x(); ++x) values[i++] = acc.getValue(openvdb::Coord(x, y, z));
+    }
+  }
+  return values;
+}
+
+std::vector<unsigned char> deflate_bytes(const void* data, std::size_t size, bool gzip) {
+  z_stream zs{};
+  HAPVOX_CHECK_EQ(deflateInit2(&zs, 6, Z_DEFLATED, gzip ? 15 + 16 : 15, 8, Z_DEFAULT_STRATEGY),
+                  Z_OK);
+  const std::size_t in_bytes = size;
+  std::vector<unsigned char> compressed(deflateBound(&zs, static_cast<uLong>(in_bytes)));
+  zs.next_in = static_cast<Bytef*>(const_cast<void*>(data));
+  zs.next_out = compressed.data();
+  // Feed in chunks: avail_in/avail_out are 32-bit.
+  std::size_t fed = 0;
+  int rc = Z_OK;
+  while (rc != Z_STREAM_END) {
+    if (zs.avail_in == 0 && fed < in_bytes) {
+      const std::size_t chunk = std::min<std::size_t>(in_bytes - fed, 1u << 30);
+      zs.avail_in = static_cast<uInt>(chunk);
+      fed += chunk;
+    }
+    zs.avail_out = static_cast<uInt>(std::min<std::size_t>(
+        compressed.size() - static_cast<std::size_t>(zs.next_out - compressed.data()), 1u << 30));
+    rc = deflate(&zs, fed == in_bytes ? Z_FINISH : Z_NO_FLUSH);
+    HAPVOX_CHECK(rc == Z_OK || rc == Z_STREAM_END || rc == Z_BUF_ERROR);
+  }
+  compressed.resize(static_cast<std::size_t>(zs.next_out - compressed.data()));
+  deflateEnd(&zs);
+  return compressed;
+}
+
+void write_file_atomically(const std::string& path, std::initializer_list<Bytes> pieces) {
+  namespace fs = std::filesystem;
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError(path, "cannot write file");
+    for (const Bytes& piece : pieces) {
+      out.write(static_cast<const char*>(piece.data), static_cast<std::streamsize>(piece.size));
+    }
+    out.close();
+    if (!out) throw InputError(path, "error while writing file");
+  }
+  std::error_code ec;
+  fs::rename(partial, path, ec);
+  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
 }
 
 }  // namespace hapvox::engine::io

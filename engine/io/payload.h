@@ -2,10 +2,14 @@
 // Reading a volume's payload bytes: raw, or gzip/zlib compressed. Sizes are checked before
 // anything is allocated, so a corrupt header cannot make a reader allocate gigabytes.
 
+#include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <istream>
 #include <string>
 #include <vector>
+
+#include "engine/density_field.h"
 
 namespace hapvox::engine::io {
 
@@ -20,5 +24,22 @@ std::vector<unsigned char> read_raw(std::istream& in, std::int64_t byte_skip, st
 /// InputError(path, ...) on corrupt, short or long data.
 std::vector<unsigned char> read_gzip(std::istream& in, std::int64_t byte_skip, std::uint64_t n,
                                      const std::string& path);
+
+/// The field's densities over its index box [0, dims), x fastest.
+std::vector<float> dense_floats(const DensityField& field);
+
+/// Deflates `size` bytes at level 6, with a gzip wrapper when `gzip` (NRRD, .nii.gz: tools
+/// that insist on gzip), else a zlib one (MetaImage's CompressedData).
+std::vector<unsigned char> deflate_bytes(const void* data, std::size_t size, bool gzip);
+
+/// One piece of a file to write.
+struct Bytes {
+  const void* data;
+  std::size_t size;
+};
+
+/// Writes the pieces to PATH.partial, then renames it to PATH, so a failed write never
+/// leaves a half file under the name. Throws InputError(PATH, ...) when it cannot.
+void write_file_atomically(const std::string& path, std::initializer_list<Bytes> pieces);
 
 }  // namespace hapvox::engine::io

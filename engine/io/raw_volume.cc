@@ -10,6 +10,7 @@ RawVolume dense_intensity(const DensityField& field) {
   raw.dims = field.dims();
   raw.spacing_mm = field.voxel_size_mm();
   raw.origin_mm = field.origin_mm();
+  raw.direction = field.direction();
   raw.sample_type = "float";
   raw.intensity.resize(static_cast<std::size_t>(raw.dims.x()) *
                        static_cast<std::size_t>(raw.dims.y()) *

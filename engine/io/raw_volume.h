@@ -19,7 +19,9 @@ struct RawVolume {
   Vec3i dims = Vec3i::Zero();
   Vec3d spacing_mm = Vec3d::Ones();
   Vec3d origin_mm = Vec3d::Zero();
-  std::string sample_type;  // type name as normalised, e.g. "uint8", "int16", "float"
+  Mat3d direction = Mat3d::Identity();  // world (LPS) direction of each index axis, as columns
+  bool holds_density = false;  // the file says it holds hapvox densities (a writer's metadata)
+  std::string sample_type;     // type name as normalised, e.g. "uint8", "int16", "float"
   double min_intensity = 0.0;
   double max_intensity = 0.0;
 };

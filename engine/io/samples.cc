@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <initializer_list>
 #include <limits>
 #include <map>
 #include <type_traits>
 
+#include "engine/check.h"
 #include "engine/errors.h"
 
 namespace hapvox::engine::io {
@@ -75,6 +77,14 @@ void convert_samples(const std::vector<unsigned char>& bytes, bool swap, std::ve
 const SampleTypeInfo* find_sample_type(const std::string& spelling) {
   const auto it = sample_type_table().find(spelling);
   return it == sample_type_table().end() ? nullptr : &it->second;
+}
+
+const SampleTypeInfo& sample_type_info(SampleType type) {
+  for (const auto& [spelling, info] : sample_type_table()) {
+    if (info.type == type) return info;
+  }
+  HAPVOX_CHECK(false);
+  std::abort();
 }
 
 void decode_samples(const std::vector<unsigned char>& bytes, SampleType type, bool swap,

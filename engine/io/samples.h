@@ -32,6 +32,9 @@ struct SampleTypeInfo {
 /// lower case, single spaces), or nullptr.
 const SampleTypeInfo* find_sample_type(const std::string& spelling);
 
+/// The size and normalised name of `type`.
+const SampleTypeInfo& sample_type_info(SampleType type);
+
 /// Decodes out->size() samples of `type` from `bytes` (byte-swapped when `swap`) into
 /// floats. Throws InputError(path, ...) on NaN or infinite floats and on doubles beyond
 /// float range.

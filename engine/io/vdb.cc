@@ -17,6 +17,7 @@
 #include <system_error>
 
 #include "engine/errors.h"
+#include "engine/io/direction.h"
 
 namespace hapvox::engine::io {
 namespace {
@@ -160,11 +161,21 @@ DensityField read_vdb(const std::string& path) {
   }
   const openvdb::math::Transform& xform = grid->transform();
   if (!xform.isLinear()) throw InputError(path, "grid transform is not linear");
-  const openvdb::Vec3d vs = xform.voxelSize();
   const openvdb::Vec3d origin = xform.indexToWorld(openvdb::Vec3d(0.0));
-  const Vec3d voxel_size(vs.x(), vs.y(), vs.z());
-  if (!voxel_size.allFinite() || voxel_size.minCoeff() <= 0.0) {
+  Vec3d voxel_size;
+  Mat3d direction;
+  for (int a = 0; a < 3; ++a) {
+    openvdb::Vec3d unit(0.0);
+    unit[a] = 1.0;
+    const openvdb::Vec3d step = xform.indexToWorld(unit) - origin;
+    voxel_size[a] = step.length();
+    direction.col(a) = Vec3d(step.x(), step.y(), step.z()) / voxel_size[a];
+  }
+  if (!voxel_size.allFinite() || !(voxel_size.minCoeff() > 0.0)) {
     throw InputError(path, "grid voxel size must be positive");
+  }
+  if (const std::string problem = direction_problem(direction); !problem.empty()) {
+    throw InputError(path, "grid transform's axes are " + problem);
   }
 
   Vec3i dims;
@@ -178,7 +189,7 @@ DensityField read_vdb(const std::string& path) {
     dims = Vec3i(std::max(1, box.max().x() + 1), std::max(1, box.max().y() + 1),
                  std::max(1, box.max().z() + 1));
   }
-  return DensityField(grid, voxel_size, Vec3d(origin.x(), origin.y(), origin.z()), dims);
+  return DensityField(grid, voxel_size, Vec3d(origin.x(), origin.y(), origin.z()), dims, direction);
 }
 
 void write_vdb(const DensityField& field, const std::string& path) {
@@ -187,11 +198,7 @@ void write_vdb(const DensityField& field, const std::string& path) {
   auto grid = openvdb::FloatGrid::create(field.grid_ptr()->treePtr());
   grid->setName("density");
   grid->setGridClass(openvdb::GRID_FOG_VOLUME);
-  const Vec3d& s = field.voxel_size_mm();
-  const Vec3d& o = field.origin_mm();
-  grid->setTransform(
-      std::make_shared<openvdb::math::Transform>(std::make_shared<openvdb::math::ScaleTranslateMap>(
-          openvdb::Vec3d(s.x(), s.y(), s.z()), openvdb::Vec3d(o.x(), o.y(), o.z()))));
+  grid->setTransform(field.grid().transform().copy());  // spacing, direction, origin
   const Vec3i& d = field.dims();
   grid->insertMeta("hapvox_dims", openvdb::Vec3IMetadata(openvdb::Vec3i(d.x(), d.y(), d.z())));
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
 
@@ -379,6 +380,30 @@ TEST(ToolForce, RejectsNonsenseMaterialAndTool) {
   EXPECT_EQ(message(options_for(4.0, 1e5, NAN)),
             "material: Poisson's ratio must lie in (-1, 0.5), got nan");
   EXPECT_EQ(message(options_for(0.0)), "tool: tool diameter must be positive and finite, got 0 mm");
+}
+
+TEST(ToolForce, ATurnedGridGivesTheTurnedForce) {
+  // The same block, its grid turned in the world: pressing its (turned) top face along the
+  // turned normal gives the same force, turned. Computed in world: without the turn the force
+  // would come out along the grid's z.
+  const DensityField plain = make_block(48, 24, Vec3d::Constant(0.5));
+  const Mat3d turn = Eigen::AngleAxisd(0.6, Vec3d(1, 0.5, -0.3).normalized()).toRotationMatrix();
+  const DensityField turned(plain.grid().deepCopy(), plain.voxel_size_mm(), plain.origin_mm(),
+                            plain.dims(), turn);
+  const ToolForceModel model_plain(plain, options_for(8.0));
+  const ToolForceModel model_turned(turned, options_for(8.0));
+  ToolForceState a = model_plain.make_state();
+  ToolForceState b = model_turned.make_state();
+  const double face_z = 23.5 * 0.5;
+  for (int tick = 0; tick <= 400; ++tick) {
+    const Vec3d p(12.1, 11.9, face_z + 4.0 + 2.0 - tick * 0.01);  // 2 mm deep at the end
+    model_plain.step(p, a);
+    model_turned.step(turned.grid_to_world(p), b);
+  }
+  ASSERT_GT(a.force_n.norm(), 0.0);
+  EXPECT_NEAR(b.force_n.norm(), a.force_n.norm(), 0.01 * a.force_n.norm());
+  const double cos_angle = b.force_n.normalized().dot(turn * Vec3d::UnitZ());
+  EXPECT_GT(cos_angle, std::cos(1.0 * kPi / 180.0));
 }
 
 }  // namespace

@@ -170,7 +170,7 @@ TEST(HapvoxCli, BadVolumesAreRejected) {
   EXPECT_EQ(nan_run.exit_code, 2);
   EXPECT_NE(nan_run.err.find("NaN"), std::string::npos) << nan_run.err;
   expect_input_error(head + "cube",
-                     "cube: unknown volume format (expected .nrrd, .nhdr or .vdb, "
+                     "cube: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz or .hdr, "
                      "or a generator: block, sphere, four-spheres)");
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(out + ".partial"));

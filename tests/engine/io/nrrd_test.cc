@@ -68,7 +68,9 @@ TEST(VolumeIoNrrd, DetachedBigEndianInt16WithByteSkip) {
   EXPECT_EQ(raw.dims, Vec3i(4, 2, 2));
   EXPECT_EQ(raw.sample_type, "int16");
   EXPECT_EQ(raw.spacing_mm, Vec3d(0.5, 2.0, 3.0));
-  EXPECT_EQ(raw.origin_mm, Vec3d(1.0, 2.5, -3.0));
+  // RAS into LPS: x and y negated, the unit vectors kept as the direction.
+  EXPECT_EQ(raw.origin_mm, Vec3d(-1.0, -2.5, -3.0));
+  EXPECT_EQ(raw.direction, Vec3d(-1, 1, 1).asDiagonal().toDenseMatrix());
   ASSERT_EQ(raw.intensity.size(), values.size());
   for (std::size_t i = 0; i < values.size(); ++i) EXPECT_EQ(raw.intensity[i], values[i]) << i;
   EXPECT_EQ(raw.min_intensity, -32768.0);
@@ -300,6 +302,54 @@ TEST(VolumeIoNrrdErrors, MissingDetachedDataFile) {
 }
 
 // ---- intensity mapping ---------------------------------------------------------------
+
+TEST(VolumeIoNrrd, SpaceDirectionsKeepOrientationInLps) {
+  // RAS space: a vector (x, y, z) there is (-x, -y, z) in LPS, and so is the origin.
+  const std::vector<std::string> fields = {"type: uint8",
+                                           "dimension: 3",
+                                           "space: right-anterior-superior",
+                                           "sizes: 2 2 2",
+                                           "space directions: (0,0.5,0) (-2,0,0) (0,0,1.5)",
+                                           "space origin: (10,20,30)",
+                                           "encoding: raw"};
+  const std::string path = scratch_dir() + "/ras.nrrd";
+  write_file(path, make_nrrd(fields, kEightBytes));
+  const RawVolume raw = read_nrrd(path);
+  EXPECT_EQ(raw.spacing_mm, Vec3d(0.5, 2.0, 1.5));
+  Mat3d expected;
+  expected << 0, 1, 0,  //
+      -1, 0, 0,         //
+      0, 0, 1;
+  EXPECT_EQ(raw.direction, expected);
+  EXPECT_EQ(raw.origin_mm, Vec3d(-10, -20, 30));
+  // Index (1, 1, 0) in world: origin + 0.5 * i axis + 2 * j axis.
+  const DensityField field = map_to_density(raw, {IntensityMapping::Kind::kThreshold, 0.0}, path);
+  EXPECT_TRUE(field.index_to_world(Vec3d(1, 1, 0)).isApprox(Vec3d(-10 + 2, -20 - 0.5, 30)));
+
+  write_file(path,
+             make_nrrd(with(fields, "space directions: (1,0,0) (1,1,0) (0,0,1)"), kEightBytes));
+  expect_input_error([&] { read_nrrd(path); }, path, "space directions are not orthonormal");
+  write_file(path, make_nrrd(with(fields, "space: right-anterior-superior-time"), kEightBytes));
+  expect_input_error([&] { read_nrrd(path); }, path, "is not supported");
+}
+
+TEST(VolumeIoNrrd, OrientedDensityRoundTripIsExact) {
+  const DensityField plain = make_test_field();
+  const Mat3d turn = Eigen::AngleAxisd(-1.1, Vec3d(0.3, -1, 0.2).normalized()).toRotationMatrix();
+  const DensityField field(plain.grid().deepCopy(), plain.voxel_size_mm(), plain.origin_mm(),
+                           plain.dims(), turn);
+  const std::string path = scratch_dir() + "/turned.nrrd";
+  write_nrrd(field, path);
+  const RawVolume raw = read_nrrd(path);
+  EXPECT_TRUE(raw.holds_density);
+  EXPECT_TRUE(raw.direction.isApprox(turn, 1e-15)) << raw.direction - turn;
+  EXPECT_TRUE(raw.spacing_mm.isApprox(field.voxel_size_mm(), 1e-15));
+  EXPECT_EQ(raw.origin_mm, field.origin_mm());
+  // Read back as density, not through the Otsu threshold: every partial density kept.
+  const DensityField back = load_volume(path, {});
+  EXPECT_EQ(back.total_density(), field.total_density());
+  EXPECT_EQ(back.active_voxel_count(), field.active_voxel_count());
+}
 
 }  // namespace
 }  // namespace hapvox::engine

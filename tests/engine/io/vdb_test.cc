@@ -79,5 +79,23 @@ TEST(VolumeIoVdbErrors, MissingNotVdbNoFloatGrid) {
 
 // ---- generators ----------------------------------------------------------------------
 
+TEST(VolumeIoVdb, TurnedGridKeepsItsDirection) {
+  const DensityField plain = make_test_field();
+  const Mat3d turn = Eigen::AngleAxisd(0.9, Vec3d(1, 1, 0).normalized()).toRotationMatrix();
+  const DensityField field(plain.grid().deepCopy(), plain.voxel_size_mm(), plain.origin_mm(),
+                           plain.dims(), turn);
+  // The grid's own transform places it in other tools (Blender): voxel (1, 2, 3) lands where
+  // the field says.
+  const openvdb::Vec3d w = field.grid().transform().indexToWorld(openvdb::Vec3d(1, 2, 3));
+  EXPECT_TRUE(Vec3d(w.x(), w.y(), w.z()).isApprox(field.index_to_world(Vec3d(1, 2, 3)), 1e-12));
+  const std::string path = scratch_dir() + "/turned.vdb";
+  write_vdb(field, path);
+  const DensityField back = read_vdb(path);
+  EXPECT_TRUE(back.direction().isApprox(turn, 1e-12));
+  EXPECT_TRUE(back.voxel_size_mm().isApprox(field.voxel_size_mm(), 1e-12));
+  EXPECT_TRUE(back.origin_mm().isApprox(field.origin_mm(), 1e-12));
+  EXPECT_EQ(back.total_density(), field.total_density());
+}
+
 }  // namespace
 }  // namespace hapvox::engine

@@ -264,7 +264,7 @@ TEST(LabelVolume, BadValuesAndMismatchedGeometryNameTheFile) {
   }
   EXPECT_EQ(input_error_of([&] { read_label_volume(dir + "/labels.png", intensity, "ct.nrrd"); }),
             dir +
-                "/labels.png: unknown volume format (expected .nrrd, .nhdr or .vdb, or a "
+                "/labels.png: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz or .hdr, or a "
                 "generator: block, sphere, four-spheres)");
 }
 

@@ -1,0 +1,173 @@
+// hapvox convert: every writer from the command line, the world box as an independent reader
+// sees it (nibabel for NIfTI, a few lines of Python reading the MetaImage header), and bad
+// input.
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+
+namespace hapvox {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::run_hapvox;
+using testing::scratch_dir;
+using testing::source_path;
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// The numbers after "world box (LPS)" in hapvox convert's output: xmin xmax ymin ymax zmin zmax.
+std::vector<double> world_box_of(const std::string& out) {
+  const auto at = out.find("world box (LPS)");
+  std::vector<double> v(6);
+  if (at == std::string::npos ||
+      std::sscanf(out.c_str() + at, "world box (LPS) [%lf, %lf] x [%lf, %lf] x [%lf, %lf]", &v[0],
+                  &v[1], &v[2], &v[3], &v[4], &v[5]) != 6) {
+    return {};
+  }
+  return v;
+}
+
+std::vector<double> numbers_of(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<double> v;
+  for (double x; in >> x;) v.push_back(x);
+  return v;
+}
+
+// The number after "total density" (convert and info both print one).
+double total_density_of(const std::string& out) {
+  const auto at = out.find("total density");
+  return at == std::string::npos ? -1.0 : std::strtod(out.c_str() + at + 13, nullptr);
+}
+
+// hapvox prints 6 significant digits.
+void expect_same_box(const std::vector<double>& a, const std::vector<double>& b,
+                     const std::string& what) {
+  ASSERT_EQ(a.size(), 6u) << what;
+  ASSERT_EQ(b.size(), 6u) << what;
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(a[i], b[i], 1e-3) << what << " " << i;
+}
+
+// A small oblique CT in RAS: a NRRD written by hand, turned 30 degrees about z, tilted.
+std::string oblique_nrrd(const std::string& dir) {
+  const std::string path = dir + "/oblique.nrrd";
+  std::string samples;
+  for (int i = 0; i < 4 * 3 * 2; ++i) samples.push_back(static_cast<char>(i * 10));
+  write_text(path,
+             "NRRD0004\ntype: uint8\ndimension: 3\nspace: right-anterior-superior\n"
+             "sizes: 4 3 2\nspace directions: (0.8660254037844387,0.5,0) "
+             "(-1,1.7320508075688772,0) (0,0,2.5)\nspace origin: (-10,5,40)\n"
+             "encoding: raw\n\n" +
+                 samples);
+  return path;
+}
+
+TEST(HapvoxConvert, NiftiAndMetaImageShowTheSameWorldBoxToIndependentReaders) {
+  if (std::system("/usr/bin/python3 -c 'import nibabel' 2>/dev/null") != 0) {
+    FAIL() << "python3-nibabel is not installed (scripts/setup.sh installs it)";
+  }
+  const std::string dir = scratch_dir();
+  const std::string in = oblique_nrrd(dir);
+  const auto nii = run_hapvox("convert " + in + " " + dir + "/oblique.nii.gz --threshold 1");
+  ASSERT_EQ(nii.exit_code, 0) << nii.err;
+  const auto mha = run_hapvox("convert " + dir + "/oblique.nii.gz " + dir + "/oblique.mha");
+  ASSERT_EQ(mha.exit_code, 0) << mha.err;
+  const std::vector<double> hapvox_box = world_box_of(nii.out);
+  ASSERT_EQ(hapvox_box.size(), 6u) << nii.out;
+  expect_same_box(world_box_of(mha.out), hapvox_box, "hapvox, from the .nii.gz");
+
+  // Corners of the voxel box [-0.5, n - 0.5] through each file's own affine; RAS -> LPS.
+  const std::string script =
+      "import sys, itertools, numpy as np, nibabel as nib\n"
+      "def box(corners):\n"
+      "    c = np.array(corners)\n"
+      "    return ' '.join('%.6f %.6f' % (c[:, a].min(), c[:, a].max()) for a in range(3))\n"
+      "img = nib.load(sys.argv[1])\n"
+      "n = img.shape\n"
+      "ras = [img.affine @ np.array([i, j, k, 1.0]) for i, j, k in\n"
+      "       itertools.product(*[(-0.5, s - 0.5) for s in n])]\n"
+      "print(box([[-p[0], -p[1], p[2]] for p in ras]))\n"
+      "h = dict(l.split(' = ', 1) for l in open(sys.argv[2], "
+      "'rb').read().split(b'ElementDataFile')[0]"
+      ".decode().strip().splitlines())\n"
+      "m = np.array(h['TransformMatrix'].split(), float).reshape(3, 3)  # row a: axis a\n"
+      "s = np.array(h['ElementSpacing'].split(), float)\n"
+      "o = np.array(h['Offset'].split(), float)\n"
+      "d = np.array(h['DimSize'].split(), int)\n"
+      "print(box([o + (np.array(ijk) * s) @ m for ijk in\n"
+      "           itertools.product(*[(-0.5, s - 0.5) for s in d])]))\n";
+  write_text(dir + "/box.py", script);
+  const std::string out_path = dir + "/box.txt";
+  ASSERT_EQ(std::system(("/usr/bin/python3 " + dir + "/box.py " + dir + "/oblique.nii.gz " + dir +
+                         "/oblique.mha > " + out_path)
+                            .c_str()),
+            0);
+  std::ifstream boxes(out_path);
+  std::string nibabel_line, metaimage_line;
+  std::getline(boxes, nibabel_line);
+  std::getline(boxes, metaimage_line);
+  expect_same_box(numbers_of(nibabel_line), hapvox_box, "nibabel");
+  expect_same_box(numbers_of(metaimage_line), hapvox_box, "the MetaImage header");
+}
+
+TEST(HapvoxConvert, EveryFormatRoundTripsTheBundledCt) {
+  const std::string dir = scratch_dir();
+  const std::string ct = source_path("data/headsq_64x64x93_uint16.nrrd");
+  const auto first = run_hapvox("convert " + ct + " " + dir + "/head.vdb --threshold 700");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const std::string density_line = first.out.substr(first.out.find("total density"));
+  std::string previous = dir + "/head.vdb";
+  for (const std::string ext : {".nrrd", ".mha", ".mhd", ".nii", ".nii.gz", ".vdb"}) {
+    const std::string next = dir + "/next" + ext;
+    const auto step = run_hapvox("convert " + previous + " " + next);
+    ASSERT_EQ(step.exit_code, 0) << ext << ": " << step.err;
+    // Densities read back as densities: the same mass, to the printed digits, each time.
+    EXPECT_EQ(step.out.substr(step.out.find("total density")), density_line) << ext;
+    previous = next;
+  }
+  // info says what the file holds and reads it as written, whatever the mapping flags.
+  const auto info = run_hapvox("info " + dir + "/next.mha --threshold 0.99");
+  EXPECT_NE(info.out.find("MetaImage volume, float densities written by hapvox"), std::string::npos)
+      << info.out;
+  EXPECT_EQ(total_density_of(info.out), total_density_of(first.out)) << info.out;
+}
+
+TEST(HapvoxConvert, BadOutputsAreRefusedBeforeWriting) {
+  const std::string dir = scratch_dir();
+  const std::string in = oblique_nrrd(dir);
+  const auto unknown = run_hapvox("convert " + in + " " + dir + "/x.png");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("x.png: unknown output format (expected .nrrd, .nhdr, .vdb"),
+            std::string::npos)
+      << unknown.err;
+  const auto onto = run_hapvox("convert " + in + " " + in);
+  EXPECT_EQ(onto.exit_code, 2);
+  EXPECT_NE(onto.err.find("would overwrite the input volume"), std::string::npos) << onto.err;
+  // A .mhd's data file is written beside it: it must not land on an input's data either.
+  ASSERT_EQ(run_hapvox("convert " + in + " " + dir + "/b.mhd").exit_code, 0);
+  fs::rename(dir + "/b.mhd", dir + "/a.mhd");  // a header naming b.zraw
+  const std::string data_before = testing::read_file(dir + "/b.zraw");
+  const auto clash = run_hapvox("convert " + dir + "/a.mhd " + dir + "/b.mhd");
+  EXPECT_EQ(clash.exit_code, 2);
+  EXPECT_NE(clash.err.find("would overwrite the input volume data file"), std::string::npos)
+      << clash.err;
+  EXPECT_EQ(testing::read_file(dir + "/b.zraw"), data_before);
+  const auto missing = run_hapvox("convert " + dir + "/none.nii.gz " + dir + "/y.nrrd");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("none.nii.gz: cannot open file"), std::string::npos) << missing.err;
+  EXPECT_FALSE(fs::exists(dir + "/y.nrrd"));
+}
+
+}  // namespace
+}  // namespace hapvox
