@@ -7,11 +7,12 @@ packages=(
   build-essential cmake pkg-config ccache
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
   libhdf5-dev libeigen3-dev libcli11-dev zlib1g-dev libatomic-queue-dev libtomlplusplus-dev
-  libnifti2-dev
+  libnifti2-dev libgdcm-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libopengl-dev libgl-dev libpng-dev
   python3-h5py python3-numpy python3-matplotlib
   python3-nibabel mricron-data  # an independent NIfTI reader and real NIfTI files, for tests
+  python3-pydicom  # DICOM test files and series written by another tool, for tests
   tetgen  # a program the mesh comparison runs (AGPL-3): never linked (docs/licences.md)
 )
 

@@ -300,8 +300,8 @@ std::optional<std::string> overwrite_reason(const OutputPath& output, const fs::
 }  // namespace
 
 std::string volume_help() {
-  return "Volume file (" + engine::io::volume_extensions_text(", ", ", ") + ") or generator (" +
-         engine::io::generator_names_text() + ")";
+  return "Volume file (" + engine::io::volume_extensions_text(", ", ", ") +
+         "), folder of DICOM slices, or generator (" + engine::io::generator_names_text() + ")";
 }
 
 std::vector<InputPath> volume_inputs(const std::string& spec) {
@@ -310,7 +310,7 @@ std::vector<InputPath> volume_inputs(const std::string& spec) {
   inputs.push_back({spec, "volume"});
   if (const engine::io::VolumeFormat* format = engine::io::find_volume_format(spec)) {
     try {
-      const std::string data = format->data_file(spec);
+      const std::string data = engine::io::companion_input(*format, spec);
       if (!data.empty()) inputs.push_back({data, "volume data file"});
     } catch (const InputError&) {
       // A bad header is reported, better, when the volume is read.

@@ -23,7 +23,7 @@ void run_convert(const ConvertFlags& f) {
   const engine::io::VolumeFormat* out_format = engine::io::find_volume_format(f.output);
   if (out_format == nullptr || out_format->write == nullptr) {
     throw InputError(f.output, "unknown output format (expected " +
-                                   engine::io::volume_extensions_text(", ", " or ") + ")");
+                                   engine::io::volume_extensions_text(", ", " or ", true) + ")");
   }
   check_output_path(f.output, "OUT");
   std::vector<OutputPath> outputs = {{f.output, "OUT", ""}};
@@ -47,13 +47,14 @@ void run_convert(const ConvertFlags& f) {
 
 void add_convert_command(CLI::App& app) {
   auto flags = std::make_shared<ConvertFlags>();
-  CLI::App* cmd = app.add_subcommand("convert", "Write a volume in another format (" +
-                                                    engine::io::volume_extensions_text(", ", ", ") +
-                                                    "), keeping spacing, origin and direction");
+  CLI::App* cmd =
+      app.add_subcommand("convert", "Write a volume in another format (" +
+                                        engine::io::volume_extensions_text(", ", ", ", true) +
+                                        "), keeping spacing, origin and direction");
   cmd->add_option("IN", flags->input, volume_help())->required();
   cmd->add_option("OUT", flags->output,
                   "File to write; its extension picks the format (" +
-                      engine::io::volume_extensions_text(", ", ", ") + ")")
+                      engine::io::volume_extensions_text(", ", ", ", true) + ")")
       ->required();
   flags->mapping.add_to(*cmd);
   cmd->callback([flags] { run_convert(*flags); });

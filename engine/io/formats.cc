@@ -1,8 +1,11 @@
 #include "engine/io/formats.h"
 
 #include <cstddef>
+#include <filesystem>
+#include <system_error>
 
 #include "engine/errors.h"
+#include "engine/io/dicom.h"
 #include "engine/io/metaimage.h"
 #include "engine/io/nifti.h"
 #include "engine/io/nrrd.h"
@@ -24,11 +27,13 @@ DensityField load_nifti(const std::string& path, const IntensityMapping& mapping
   return load_samples(read_nifti(path), mapping, path);
 }
 
+DensityField load_dicom(const std::string& path, const IntensityMapping& mapping) {
+  return load_samples(read_dicom(path), mapping, path);
+}
+
 RawVolume read_vdb_samples(const std::string& path) { return dense_intensity(read_vdb(path)); }
 
 DensityField load_vdb(const std::string& path, const IntensityMapping&) { return read_vdb(path); }
-
-std::string no_data_file(const std::string&) { return ""; }
 
 bool ends_with(const std::string& text, const std::string& suffix) {
   return text.size() >= suffix.size() &&
@@ -37,36 +42,55 @@ bool ends_with(const std::string& text, const std::string& suffix) {
 
 std::string unknown_format_message() {
   return "unknown volume format (expected " + volume_extensions_text(", ", " or ") +
-         ", or a generator: " + generator_names_text() + ")";
+         ", a folder of DICOM slices, or a generator: " + generator_names_text() + ")";
 }
 
 }  // namespace
 
 const std::vector<VolumeFormat>& volume_formats() {
   static const std::vector<VolumeFormat> formats = {
-      {"NRRD", {".nrrd", ".nhdr"}, read_nrrd, load_nrrd, write_nrrd, nrrd_data_file, nullptr, true},
-      {"OpenVDB", {".vdb"}, read_vdb_samples, load_vdb, write_vdb, no_data_file, nullptr, false},
-      {"MetaImage",
-       {".mha", ".mhd"},
-       read_metaimage,
-       load_metaimage,
-       write_metaimage,
-       metaimage_data_file,
-       metaimage_written_data_file,
-       true},
-      {"NIfTI",
-       {".nii", ".nii.gz", ".hdr"},
-       read_nifti,
-       load_nifti,
-       write_nifti,
-       nifti_data_file,
-       nullptr,
-       true},
+      {.name = "NRRD",
+       .extensions = {".nrrd", ".nhdr"},
+       .read_samples = read_nrrd,
+       .load = load_nrrd,
+       .write = write_nrrd,
+       .data_file = nrrd_data_file},
+      {.name = "OpenVDB",
+       .extensions = {".vdb"},
+       .holds_samples = false,
+       .read_samples = read_vdb_samples,
+       .load = load_vdb,
+       .write = write_vdb},
+      {.name = "MetaImage",
+       .extensions = {".mha", ".mhd"},
+       .read_samples = read_metaimage,
+       .load = load_metaimage,
+       .write = write_metaimage,
+       .data_file = metaimage_data_file,
+       .written_data_file = metaimage_written_data_file},
+      {.name = "NIfTI",
+       .extensions = {".nii", ".nii.gz", ".hdr"},
+       .read_samples = read_nifti,
+       .load = load_nifti,
+       .write = write_nifti,
+       .data_file = nifti_data_file},
+      {.name = "DICOM",
+       .extensions = {".dcm"},
+       .reads_folders = true,
+       .read_samples = read_dicom,
+       .load = load_dicom},
   };
   return formats;
 }
 
 const VolumeFormat* find_volume_format(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    for (const VolumeFormat& format : volume_formats()) {
+      if (format.reads_folders) return &format;
+    }
+    return nullptr;
+  }
   const std::string name = lower(path);
   for (const VolumeFormat& format : volume_formats()) {
     for (const std::string& ext : format.extensions) {
@@ -80,13 +104,19 @@ const VolumeFormat* find_volume_format(const std::string& path) {
   return nullptr;
 }
 
+std::string companion_input(const VolumeFormat& format, const std::string& path) {
+  return format.data_file == nullptr ? "" : format.data_file(path);
+}
+
 std::string companion_output(const VolumeFormat& format, const std::string& path) {
   return format.written_data_file == nullptr ? "" : format.written_data_file(path);
 }
 
-std::string volume_extensions_text(const std::string& separator, const std::string& last) {
+std::string volume_extensions_text(const std::string& separator, const std::string& last,
+                                   bool written) {
   std::vector<std::string> all;
   for (const VolumeFormat& format : volume_formats()) {
+    if (written && format.write == nullptr) continue;
     all.insert(all.end(), format.extensions.begin(), format.extensions.end());
   }
   std::string text;

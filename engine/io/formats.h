@@ -17,32 +17,38 @@ namespace hapvox::engine::io {
 struct VolumeFormat {
   const char* name;                     // "NRRD"
   std::vector<std::string> extensions;  // lower case, with the dot: ".nrrd", ".nhdr"
+  /// True when the format stores scanner samples (mapped to density on load, unless the
+  /// file says hapvox wrote densities), false when it stores a density grid.
+  bool holds_samples = true;
+  /// True when a folder is read as one volume (a DICOM series).
+  bool reads_folders = false;
   /// The samples as stored (intensities, labels or densities), dense.
-  RawVolume (*read_samples)(const std::string& path);
-  /// A density field: scanner samples through the intensity mapping, a density grid as is.
-  DensityField (*load)(const std::string& path, const IntensityMapping& mapping);
+  RawVolume (*read_samples)(const std::string& path) = nullptr;
+  /// A density field: scanner samples through the intensity mapping, densities as they are.
+  DensityField (*load)(const std::string& path, const IntensityMapping& mapping) = nullptr;
   /// Writes a density field (nullptr: hapvox does not write the format).
-  void (*write)(const DensityField& field, const std::string& path);
-  /// Other files this file names and reads (a detached header's data file); none is "".
-  std::string (*data_file)(const std::string& path);
-  /// The data file `write` writes beside PATH (a .mhd's NAME.zraw), or "" for none.
-  std::string (*written_data_file)(const std::string& path);
-  /// True when the format stores scanner samples (mapped to density on load), false when
-  /// it stores a density grid.
-  bool holds_samples;
+  void (*write)(const DensityField& field, const std::string& path) = nullptr;
+  /// The other file this file names and reads (a detached header's data), "" for none.
+  std::string (*data_file)(const std::string& path) = nullptr;
+  /// The data file `write` writes beside PATH (a .mhd's NAME.zraw), "" for none.
+  std::string (*written_data_file)(const std::string& path) = nullptr;
 };
 
 /// Every format, in the order help texts list them.
 const std::vector<VolumeFormat>& volume_formats();
 
-/// The format whose extension `path` ends with (any case), or nullptr.
+/// The format whose extension `path` ends with (any case), the folder-reading format for an
+/// existing folder, or nullptr.
 const VolumeFormat* find_volume_format(const std::string& path);
 
-/// format.written_data_file(path), "" when the format has none.
+/// format.data_file(path) and format.written_data_file(path); "" when the format has none.
+std::string companion_input(const VolumeFormat& format, const std::string& path);
 std::string companion_output(const VolumeFormat& format, const std::string& path);
 
-/// The extensions joined by `separator`, the last by `last` (".nrrd, .nhdr or .vdb").
-std::string volume_extensions_text(const std::string& separator, const std::string& last);
+/// The extensions joined by `separator`, the last by `last` (".nrrd, .nhdr or .vdb"); of
+/// the formats hapvox writes only, when `written`.
+std::string volume_extensions_text(const std::string& separator, const std::string& last,
+                                   bool written = false);
 
 /// The generator names joined by ", " ("block, sphere, four-spheres").
 std::string generator_names_text();

@@ -93,7 +93,8 @@ TEST(VolumeIoLoad, DispatchesByExtensionAndRejectsUnknown) {
 
   write_file(dir + "/v.raw", kEightBytes);
   const std::string problem =
-      "unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz or .hdr";
+      "unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz, .hdr or "
+      ".dcm, a folder of DICOM slices, or a generator";
   expect_input_error([&] { load_volume(dir + "/v.raw", {}); }, dir + "/v.raw", problem);
   expect_input_error([&] { load_volume(dir + "/missing.tiff", {}); }, dir + "/missing.tiff",
                      problem);
@@ -140,6 +141,8 @@ TEST(VolumeIoFormats, ExtensionsMatchInAnyCase) {
   EXPECT_EQ(io::find_volume_format("dir/.nrrd"), nullptr);
   EXPECT_EQ(io::find_volume_format("scan.gz"), nullptr);
   EXPECT_EQ(io::volume_extensions_text(", ", " or "),
+            ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz, .hdr or .dcm");
+  EXPECT_EQ(io::volume_extensions_text(", ", " or ", /*written=*/true),
             ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz or .hdr");
 }
 

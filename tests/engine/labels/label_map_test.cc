@@ -262,10 +262,12 @@ TEST(LabelVolume, BadValuesAndMismatchedGeometryNameTheFile) {
     EXPECT_EQ(input_error_of([&] { read_label_volume(path, *c.intensity, "ct.nrrd"); }),
               path + ": " + c.problem);
   }
-  EXPECT_EQ(input_error_of([&] { read_label_volume(dir + "/labels.png", intensity, "ct.nrrd"); }),
-            dir +
-                "/labels.png: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz or .hdr, or a "
-                "generator: block, sphere, four-spheres)");
+  EXPECT_EQ(
+      input_error_of([&] { read_label_volume(dir + "/labels.png", intensity, "ct.nrrd"); }),
+      dir +
+          "/labels.png: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, "
+          ".nii.gz, .hdr or .dcm, a folder of DICOM slices, or a generator: block, sphere, "
+          "four-spheres)");
 }
 
 // ---- picking ----------------------------------------------------------------------------
