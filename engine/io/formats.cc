@@ -35,11 +35,6 @@ RawVolume read_vdb_samples(const std::string& path) { return dense_intensity(rea
 
 DensityField load_vdb(const std::string& path, const IntensityMapping&) { return read_vdb(path); }
 
-bool ends_with(const std::string& text, const std::string& suffix) {
-  return text.size() >= suffix.size() &&
-         text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
 std::string unknown_format_message() {
   return "unknown volume format (expected " + volume_extensions_text(", ", " or ") +
          ", a folder of DICOM slices, or a generator: " + generator_names_text() + ")";

@@ -89,7 +89,7 @@ ImagePtr read_header_only(const std::string& path) {
 
 bool ends_with_gz(const std::string& path) {
   const std::string name = lower(path);
-  return name.size() > 3 && name.compare(name.size() - 3, 3, ".gz") == 0;
+  return name.size() > 3 && ends_with(name, ".gz");
 }
 
 }  // namespace

@@ -30,6 +30,11 @@ inline std::vector<std::string> split_ws(const std::string& s) {
   return out;
 }
 
+inline bool ends_with(const std::string& text, const std::string& suffix) {
+  return text.size() >= suffix.size() &&
+         text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
 // Whole-token parses: "12abc" is not a number.
 inline bool parse_int(const std::string& s, std::int64_t* out) {
   const char* end = s.data() + s.size();
