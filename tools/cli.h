@@ -112,12 +112,12 @@ struct InputPath {
   std::string path;
   std::string what;
 };
-/// The files a volume spec reads: none for a generator, the file itself, and a detached
-/// NRRD header's data file.
-/// "Volume file (.nrrd, .nhdr, .vdb) or generator (block, sphere, four-spheres)", from the
+/// "Volume file (.nrrd, ...), folder of DICOM slices, or generator (block, ...)", from the
 /// format table (engine/io/formats.h).
 std::string volume_help();
 
+/// The files a volume spec reads: none for a generator, the file itself, and the data file
+/// its header names (a detached NRRD, .mhd or .hdr header's).
 std::vector<InputPath> volume_inputs(const std::string& spec);
 /// A --transfer value that names a file rather than a preset, as an input; else none.
 std::vector<InputPath> transfer_inputs(const std::string& spec);
