@@ -8,6 +8,10 @@
 # here, every file being compiled with engine/'s precompiled OpenVDB and Eigen headers.
 # CCACHE_BASEDIR makes paths under the checkout relative and CCACHE_NOHASHDIR leaves the
 # working directory out of the hash, so a clone in another folder (CI's) hits the cache.
+# CI compiles three configurations (ASan, TSan, release) of about 4 GB of objects each:
+# ccache's default 5 GB limit evicted the first while the last was built, and every CI run
+# then compiled cold (64 min once), so hapvox's compiles allow the cache 25 GB unless
+# CCACHE_MAXSIZE says otherwise.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 targets=()
@@ -22,7 +26,7 @@ build_dir=${1:-"$root/build"}
 shift || true
 launcher=()
 if command -v ccache >/dev/null 2>&1; then
-  ccache="env;CCACHE_SLOPPINESS=pch_defines,time_macros,include_file_mtime,include_file_ctime;CCACHE_BASEDIR=$root;CCACHE_NOHASHDIR=1;ccache"
+  ccache="env;CCACHE_SLOPPINESS=pch_defines,time_macros,include_file_mtime,include_file_ctime;CCACHE_BASEDIR=$root;CCACHE_NOHASHDIR=1;CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-25G};ccache"
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER="$ccache" -DCMAKE_CXX_COMPILER_LAUNCHER="$ccache")
 fi
 cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" "$@" >/dev/null

@@ -134,10 +134,13 @@ Vec3d force_at(const std::vector<double>& f, std::size_t k) {
   return Vec3d(f[3 * k], f[3 * k + 1], f[3 * k + 2]);
 }
 
-// Issue 8 point 4: a 20 ms stall with the tool held in the material. The late tick sends
+// Issue 8 point 4: a 40 ms stall with the tool held in the material. The late tick sends
 // the force it computed (no cut to zero), then the force ramps down to zero and back in
 // at the ramp's slope: no tick-to-tick step exceeds |F| / (ramp_in_s * rate), the model's
 // own change being zero while the tool is still. A plain cut would step by |F|.
+// The watchdog here waits 10 periods: at its default of one, a loaded 2-core machine (or a
+// ThreadSanitizer build) trips it every few ticks, and the force never stays at full scale
+// long enough to be measured (it once never came back in before the trace ended).
 TEST(Realtime, AStallSendsTheLateForceThenRampsItDownAndBackWithoutAStep) {
   const std::string path = testing::scratch_dir() + "/rt.h5";
   const engine::DensityField field = engine::generate_volume("block:dims=48");
@@ -148,8 +151,9 @@ TEST(Realtime, AStallSendsTheLateForceThenRampsItDownAndBackWithoutAStep) {
   const DeviceLimits limits;  // 10 N, ramp 0.1 s: 100 ticks at 1 kHz
   const std::size_t stall_tick = 600, steps = 100;
   RealtimeOptions options;
+  options.watchdog_periods = 10.0;
   options.hooks.before_tick = [&](std::size_t tick) {
-    if (tick == stall_tick) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (tick == stall_tick) std::this_thread::sleep_for(std::chrono::milliseconds(40));
   };
   TimingSummary timing;
   SessionWriter session(path);
@@ -167,8 +171,8 @@ TEST(Realtime, AStallSendsTheLateForceThenRampsItDownAndBackWithoutAStep) {
   EXPECT_GE(timing.watchdog_ramped_ticks, 2 * steps - 1);
   // The held force: the model's force, sent at full scale before the stall.
   std::size_t full = stall_tick - 1;
-  while (scale[full] != 1.0) --full;  // (a tick preempted on a loaded machine trips too)
-  ASSERT_GT(full, 200u);
+  while (full > 200 && scale[full] != 1.0) --full;  // (a preempted tick may trip too)
+  ASSERT_EQ(scale[full], 1.0) << "the force was never at full scale between 0.2 s and the stall";
   const Vec3d held = force_at(force, full);
   // A real press (about 0.29 N under the Hertz law), so a cut to zero would be a step.
   ASSERT_GT(held.norm(), 0.2);
