@@ -92,7 +92,11 @@ TEST(ReplayFemRender, RealtimeFramesShowTheFemThreadsDisplacements) {
   const std::string dir = scratch_dir();
   const auto r =
       run_hapvox("replay " + source_path("traces/fig5_grab.csv") +
-                 " --volume four-spheres:dims=64,voxel_mm=2 --model fem --materials " +
+                 // 32^3 voxels of 4 mm (the same 128 mm box): each resample of the deformed
+                 // volume costs a quarter of 64^3's, so a ThreadSanitizer build on a busy
+                 // machine still draws several frames in the 1.5 s run (at 64^3 it once drew
+                 // one, 0.86 s a resample).
+                 " --volume four-spheres:dims=32,voxel_mm=4 --model fem --materials " +
                  source_path("data/four_spheres.toml") +
                  " --interaction grab --tool-diameter-mm 30 --spacing-mm 16 --boundary-levels 0"
                  " --coupling-n-per-mm 1000 --max-force-n 10000 --ramp-in-s 0"
