@@ -46,8 +46,9 @@ ToolForceState::ToolForceState(const DensityField& field)
 ToolForceState::ToolForceState(const DensityField& buffer0, const DensityField& buffer1)
     : accessors{buffer0.grid().getConstAccessor(), buffer1.grid().getConstAccessor()} {}
 
-ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions& options)
-    : field_(&field), options_(options) {
+ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions& options,
+                               const TissueMap* tissue)
+    : field_(&field), tissue_(tissue), options_(options) {
   lame_ = lame_parameters(options.material);
   const double d = options.tool.diameter_mm;
   if (!std::isfinite(d) || d <= 0.0) {
@@ -79,12 +80,15 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
       out << "yield stress must be positive and finite, got " << plastic.yield_stress_pa << " Pa";
       throw InputError("material", out.str());
     }
+    // Below every material's E: the hardening modulus E E_ep / (E - E_ep) must be finite.
+    const double e =
+        tissue != nullptr ? tissue->min_youngs_modulus_pa() : options.material.youngs_modulus_pa;
     if (!std::isfinite(plastic.elastoplastic_modulus_pa) ||
-        plastic.elastoplastic_modulus_pa < 0.0 ||
-        plastic.elastoplastic_modulus_pa >= options.material.youngs_modulus_pa) {
+        plastic.elastoplastic_modulus_pa < 0.0 || plastic.elastoplastic_modulus_pa >= e) {
       std::ostringstream out;
       out << "elasto-plastic modulus must lie in [0, E), got " << plastic.elastoplastic_modulus_pa
           << " Pa";
+      if (tissue != nullptr) out << " (the softest material's E is " << e << " Pa)";
       throw InputError("material", out.str());
     }
   }
@@ -137,6 +141,18 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
   active_bbox_.expand(1);
   // Sculpted material can flow anywhere: no early-out on the initial bounds.
   if (options.plastic.enabled) active_bbox_ = openvdb::CoordBBox::inf();
+}
+
+ToolForceState ToolForceModel::make_state() const {
+  ToolForceState state(*field_);
+  if (tissue_ != nullptr) state.tissue_accessor.emplace(tissue_->slots().getConstAccessor());
+  return state;
+}
+
+ToolForceState ToolForceModel::make_state(const DensityField& second) const {
+  ToolForceState state(*field_, second);
+  if (tissue_ != nullptr) state.tissue_accessor.emplace(tissue_->slots().getConstAccessor());
+  return state;
 }
 
 bool ToolForceModel::may_touch(const Vec3d& c) const {
@@ -224,13 +240,56 @@ ContactIntegral ToolForceModel::integrate_contact(const Vec3d& center_mm, ToolFo
       sum_density += rho;
       max_density = std::max(max_density, rho);
       ++in_contact;
+      if (tissue_ != nullptr)
+        add_tissue_sample(c + sample_offsets_index_[k], sample_normals_[k], s, result);
     }
   }
   result.area_vector_mm2 = sum_normal * sample_area_mm2_;
   result.contact_area_mm2 = sum_density * sample_area_mm2_;
+  if (tissue_ != nullptr) {
+    result.lambda_area_vector_pa_mm2 *= sample_area_mm2_;
+    result.mu_area_vector_pa_mm2 *= sample_area_mm2_;
+    result.modulus_area_pa_mm2 *= sample_area_mm2_;
+    result.poisson_area_mm2 *= sample_area_mm2_;
+    result.yield_area_pa_mm2 *= sample_area_mm2_;
+  }
   result.samples_in_contact = in_contact;
   result.max_density = max_density;
   return result;
+}
+
+void ToolForceModel::add_tissue_sample(const Eigen::Vector3f& q, const Eigen::Vector3f& normal,
+                                       ToolForceState& s, ContactIntegral& result) const {
+  // The point's material: its trilinear stencil's corners, each weighted by its trilinear
+  // weight times its density, so the weights sum to the point's density and an empty
+  // voxel (whatever its slot) lends nothing. Only contact points come here.
+  const float fx0 = std::floor(q.x());
+  const float fy0 = std::floor(q.y());
+  const float fz0 = std::floor(q.z());
+  const float f[3] = {q.x() - fx0, q.y() - fy0, q.z() - fz0};
+  const openvdb::Coord base(static_cast<int>(fx0), static_cast<int>(fy0), static_cast<int>(fz0));
+  const std::vector<TissueMap::Row>& rows = tissue_->rows();
+  double lambda = 0.0, mu = 0.0, modulus = 0.0, poisson = 0.0, yield = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const int dx = (corner >> 2) & 1, dy = (corner >> 1) & 1, dz = corner & 1;
+    const openvdb::Coord ijk = base.offsetBy(dx, dy, dz);
+    const float rho = s.accessor().getValue(ijk);
+    if (!(rho > 0.0f)) continue;
+    const double w = double(dx ? f[0] : 1.0f - f[0]) * double(dy ? f[1] : 1.0f - f[1]) *
+                     double(dz ? f[2] : 1.0f - f[2]) * double(rho);
+    const TissueMap::Row& row = rows[static_cast<std::size_t>(s.tissue_accessor->getValue(ijk))];
+    lambda += w * row.lambda_pa;
+    mu += w * row.mu_pa;
+    modulus += w * row.youngs_modulus_pa;
+    poisson += w * row.poisson_ratio;
+    yield += w * row.yield_stress_pa;
+  }
+  const Vec3d n = normal.cast<double>();
+  result.lambda_area_vector_pa_mm2 += lambda * n;
+  result.mu_area_vector_pa_mm2 += mu * n;
+  result.modulus_area_pa_mm2 += modulus;
+  result.poisson_area_mm2 += poisson;
+  result.yield_area_pa_mm2 += yield;
 }
 
 bool ToolForceModel::touches(const Vec3d& center_mm, ToolForceState& s) const {
@@ -280,20 +339,50 @@ double ToolForceModel::reference_length_mm(const ContactIntegral& contact) const
   // contact radius a. So L = 3/4 (E / E*) |N| / a = 3/4 (1 - nu^2) |N| / a.
   const double a_mm = contact.contact_radius_mm();
   if (!(a_mm > 0.0)) return 0.0;
-  return hertz_length_factor_ * contact.area_vector_mm2.norm() / a_mm;
+  double factor = hertz_length_factor_;
+  if (tissue_ != nullptr) {
+    const double nu = contact_poisson_ratio(contact);
+    factor = 0.75 * (1.0 - nu * nu);
+  }
+  return factor * contact.area_vector_mm2.norm() / a_mm;
 }
 
-Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u, double reference_length_mm) const {
+double ToolForceModel::contact_youngs_modulus_pa(const ContactIntegral& contact) const {
+  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
+    return options_.material.youngs_modulus_pa;
+  }
+  return contact.modulus_area_pa_mm2 / contact.contact_area_mm2;
+}
+
+double ToolForceModel::contact_poisson_ratio(const ContactIntegral& contact) const {
+  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
+    return options_.material.poisson_ratio;
+  }
+  return contact.poisson_area_mm2 / contact.contact_area_mm2;
+}
+
+double ToolForceModel::contact_yield_stress_pa(const ContactIntegral& contact) const {
+  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
+    return options_.plastic.yield_stress_pa;
+  }
+  return contact.yield_area_pa_mm2 / contact.contact_area_mm2;
+}
+
+Eigen::Matrix3d ToolForceModel::strain(const Vec3d& u, double reference_length_mm,
+                                       double poisson_ratio) const {
   const double length = u.norm();
   if (!(length > 0.0) || !(reference_length_mm > 0.0)) return Eigen::Matrix3d::Zero();
   const Vec3d dir = u / length;
   const Eigen::Matrix3d along = dir * dir.transpose();
   // Compression |u| / L along the push; the Hertz law lets the material expand laterally
   // by nu (a free surface, not a confined column), the paper's strain does not.
-  const double strain = -length / reference_length_mm;
-  const double lateral =
-      options_.contact_law == ContactLaw::kHertz ? options_.material.poisson_ratio : 0.0;
-  const Eigen::Matrix3d eps = strain * (along - lateral * (Eigen::Matrix3d::Identity() - along));
+  const double compression = -length / reference_length_mm;
+  const double lateral = options_.contact_law == ContactLaw::kHertz ? poisson_ratio : 0.0;
+  return compression * (along - lateral * (Eigen::Matrix3d::Identity() - along));
+}
+
+Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u, double reference_length_mm) const {
+  const Eigen::Matrix3d eps = strain(u, reference_length_mm, options_.material.poisson_ratio);
   return lame_.lambda_pa * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * lame_.mu_pa * eps;
 }
 
@@ -304,9 +393,16 @@ Vec3d ToolForceModel::traction_force_n(const Eigen::Matrix3d& stress,
   return stress * contact.area_vector_mm2 * kMm2PaToNewton;
 }
 
+Vec3d ToolForceModel::tissue_force_n(const Eigen::Matrix3d& eps, const ContactIntegral& contact) {
+  // sum_k (lambda_k tr(eps) I + 2 mu_k eps) n_k dA_k, the strain being the contact's.
+  return (eps.trace() * contact.lambda_area_vector_pa_mm2 +
+          2.0 * eps * contact.mu_area_vector_pa_mm2) *
+         kMm2PaToNewton;
+}
+
 void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) const {
   s.surface_change_emitted = false;
-  const double e = options_.material.youngs_modulus_pa;
+  const double e = contact_youngs_modulus_pa(s.contact);
   const double length_mm = s.reference_length_mm;
   const double n_length = s.contact.area_vector_mm2.norm();
   const Vec3d inward = n_length > 0.0 ? Vec3d(s.contact.area_vector_mm2 / n_length) : Vec3d::Zero();
@@ -380,7 +476,7 @@ void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
       // A new contact: elastic again, with the material's own yield stress.
       s.plastic_strain = 0.0;
       s.stress_measure_pa = 0.0;
-      s.yield_stress_pa = options_.plastic.yield_stress_pa;
+      s.yield_stress_pa = contact_yield_stress_pa(s.contact);
       s.zone = PlasticZone::kElastic;
       ++s.contact_onsets;
       if (s.has_position) {
@@ -400,9 +496,18 @@ void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
     s.indentation_mm =
         n_length > 0.0 ? s.displacement_mm.dot(s.contact.area_vector_mm2) / n_length : 0.0;
     // Contact only pushes: a tool beyond x0 (u . n <= 0) is off the surface.
-    if (s.indentation_mm > 0.0) {
+    if (s.indentation_mm > 0.0 && tissue_ == nullptr) {
       s.stress_pa = stress_pa(s.displacement_mm, s.reference_length_mm);
       s.force_n = traction_force_n(s.stress_pa, s.contact);
+    } else if (s.indentation_mm > 0.0) {
+      // Each point's own material; the reported stress is the contact's mean material's.
+      const double nu = contact_poisson_ratio(s.contact);
+      const double e = contact_youngs_modulus_pa(s.contact);
+      const Eigen::Matrix3d eps = strain(s.displacement_mm, s.reference_length_mm, nu);
+      const double lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+      const double mu = e / (2.0 * (1.0 + nu));
+      s.stress_pa = lambda * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * eps;
+      s.force_n = tissue_force_n(eps, s.contact);
     } else {
       // Off the surface: no elastic deformation to show either (the FFD reads u).
       s.displacement_mm.setZero();

@@ -22,6 +22,11 @@
 //   plasticity   yield when s = E |u| / L exceeds sigma_f while the tool moves into the
 //                material: x0 moves along the push (return mapping, slope E_ep), sigma_f
 //                hardens, a SurfaceChange is emitted. Moving out is elastic unloading.
+//   tissue       with a TissueMap (tissue_map.h), each quadrature point has its own
+//                lambda, mu: F = 1e-6 (tr(eps) N_lambda + 2 eps N_mu) with
+//                N_lambda = sum_k lambda_k rho_k n_k dA_k (likewise mu), and nu, E and
+//                sigma_f of the strain, L and the yield rule are the contact's
+//                density-weighted means.
 //
 // Model (const, shared) / state (mutable, one per thread), MuJoCo-style: step() is the
 // readable sequence of stages, each also public for tests and benchmarks. step() does not
@@ -32,11 +37,13 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "engine/density_field.h"
 #include "engine/material.h"
 #include "engine/surface_change.h"
+#include "engine/tissue_map.h"
 
 namespace hapvox::engine {
 
@@ -97,6 +104,14 @@ struct ContactIntegral {
   double contact_area_mm2 = 0.0;  // S: sum of density x area (a scalar contact measure)
   int samples_in_contact = 0;     // samples with density > 0
   float max_density = 0.0f;       // largest sampled density (contact: >= surface_density)
+  // With a TissueMap (else zero): the same integral weighted by each point's material,
+  // the material at a point being its trilinear stencil's, each corner weighted by its
+  // trilinear weight times its density (so empty voxels lend no material).
+  Vec3d lambda_area_vector_pa_mm2 = Vec3d::Zero();  // sum lambda rho n dA
+  Vec3d mu_area_vector_pa_mm2 = Vec3d::Zero();      // sum mu rho n dA
+  double modulus_area_pa_mm2 = 0.0;                 // sum E rho dA
+  double poisson_area_mm2 = 0.0;                    // sum nu rho dA
+  double yield_area_pa_mm2 = 0.0;                   // sum sigma_f rho dA
   /// Hertz contact radius a = sqrt(S / 2 pi) (mm): a spherical cap of depth d has S =
   /// 2 pi R d, so a^2 = R d; for two curved surfaces it gives a^2 = R* d.
   double contact_radius_mm() const;
@@ -145,6 +160,8 @@ struct ToolForceState {
   const openvdb::FloatTree::LeafNodeType* cached_leaf = nullptr;
   openvdb::Coord cached_leaf_origin{openvdb::Coord::max()};
   float cached_tile_value = 0.0f;
+  // The tissue slots, when the model has a TissueMap (made by ToolForceModel::make_state).
+  std::optional<openvdb::Int32Grid::ConstAccessor> tissue_accessor;
 
   /// Call after the field this state reads has been changed (lockstep only).
   void invalidate_cache() {
@@ -165,14 +182,15 @@ struct ToolForceState {
 class ToolForceModel {
  public:
   /// Validates the options (throws InputError on a bad material or tool) and precomputes
-  /// the surface quadrature. `field` must outlive the model.
-  ToolForceModel(const DensityField& field, const ToolForceOptions& options);
+  /// the surface quadrature. `field` (and `tissue`, when given) must outlive the model.
+  /// With `tissue`, its materials replace options.material (its row 0 stands for voxels no
+  /// label gave a material) and their yield stresses options.plastic.yield_stress_pa.
+  ToolForceModel(const DensityField& field, const ToolForceOptions& options,
+                 const TissueMap* tissue = nullptr);
 
-  ToolForceState make_state() const { return ToolForceState(*field_); }
+  ToolForceState make_state() const;
   /// A state that can read `field()` as buffer 0 and `second` (same geometry) as buffer 1.
-  ToolForceState make_state(const DensityField& second) const {
-    return ToolForceState(*field_, second);
-  }
+  ToolForceState make_state(const DensityField& second) const;
 
   /// One force tick at tool centre `tool_center_mm` (volume space). Fills state's results.
   void step(const Vec3d& tool_center_mm, ToolForceState& state) const;
@@ -196,10 +214,24 @@ class ToolForceModel {
   /// L of the strain for this contact (mm): the paper's fixed length, or the Hertz law's
   /// 3/4 (1 - nu^2) |N| / a. 0 when the contact has no area vector.
   double reference_length_mm(const ContactIntegral& contact) const;
-  /// Eq. 6 for the law's strain of displacement u over length L (Pa). Zero for L <= 0.
+  /// Eq. 6 for the law's strain of displacement u over length L (Pa), with the model's
+  /// material. Zero for L <= 0.
   Eigen::Matrix3d stress_pa(const Vec3d& displacement_mm, double reference_length_mm) const;
+  /// The law's strain of u over L: compression |u| / L along u, with lateral expansion nu
+  /// under the Hertz law (none under the paper's). Zero for L <= 0.
+  Eigen::Matrix3d strain(const Vec3d& displacement_mm, double reference_length_mm,
+                         double poisson_ratio) const;
   /// Eq. 8: F = sigma N (N).
   static Vec3d traction_force_n(const Eigen::Matrix3d& stress_pa, const ContactIntegral& contact);
+  /// Eq. 8 with the material at each quadrature point: F = 1e-6 (tr(eps) N_lambda + 2 eps
+  /// N_mu) (N). Equals traction_force_n for one material.
+  static Vec3d tissue_force_n(const Eigen::Matrix3d& strain, const ContactIntegral& contact);
+
+  /// The contact's density-weighted mean E, nu and sigma_f with a TissueMap; the model's
+  /// material (and options.plastic's sigma_f) without one, or when nothing is in contact.
+  double contact_youngs_modulus_pa(const ContactIntegral& contact) const;
+  double contact_poisson_ratio(const ContactIntegral& contact) const;
+  double contact_yield_stress_pa(const ContactIntegral& contact) const;
 
   /// The seed's approach, for benchmarks: every voxel of the tool's bounding box read
   /// through a ValueAccessor; voxels whose centre lies within half a voxel of the sphere
@@ -213,12 +245,19 @@ class ToolForceModel {
   double tool_radius_mm() const { return 0.5 * options_.tool.diameter_mm; }
   int surface_sample_count() const { return static_cast<int>(sample_offsets_index_.size()); }
   const DensityField& field() const { return *field_; }
+  /// The materials by tissue, or nullptr (one material: options().material).
+  const TissueMap* tissue() const { return tissue_; }
 
  private:
   float sample_density(const Eigen::Vector3f& q_index, ToolForceState& state) const;
+  /// Adds quadrature point q (index space, outward normal n, density > 0) to the tissue
+  /// sums of `result` (before the area factor).
+  void add_tissue_sample(const Eigen::Vector3f& q_index, const Eigen::Vector3f& normal,
+                         ToolForceState& state, ContactIntegral& result) const;
   bool may_touch(const Vec3d& center_index) const;
 
   const DensityField* field_;
+  const TissueMap* tissue_;
   ToolForceOptions options_;
   LameParameters lame_;
   double fixed_reference_length_mm_;  // paper law only

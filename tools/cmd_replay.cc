@@ -15,6 +15,7 @@
 #include "tools/cli.h"
 #include "tools/render_output.h"
 #include "tools/replay_command.h"
+#include "tools/tissue_options.h"
 
 namespace hapvox::cli {
 namespace {
@@ -24,8 +25,9 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (f.model != "voxel")
     throw InputError("--model", "unknown model '" + f.model + "' (voxel or fem)");
   // Check everything the user gave before reading big files or creating output.
-  if (!f.fem_mesh.materials.empty()) throw InputError("--materials", "needs --model fem");
   if (!f.fem_run.incision.empty()) throw InputError("--incision", "needs --model fem");
+  const bool by_tissue = !f.fem_mesh.materials.empty();
+  check_tissue_flags(f.fem_mesh, f.mapping);
   for (const CLI::Option* option : f.fem_only_options) {
     if (option->count() > 0) throw InputError(option->get_name(), "needs --model fem");
   }
@@ -44,6 +46,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   }
   std::vector<InputPath> inputs = volume_inputs(f.volume);
   inputs.push_back({f.trace_path, "trace"});
+  for (const InputPath& input : fem_inputs(f.fem_mesh)) inputs.push_back(input);
   if (!f.render_dir.empty()) {
     for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
   }
@@ -77,11 +80,18 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (!f.force.surface_density_given) force_options.surface_density = 0.5 * f.normal_density;
 
   const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
-  engine::DensityField field = engine::load_volume(f.volume, mapping);
+  // Materials by tissue: the labels give each voxel its density and material.
+  std::optional<engine::labels::TissueVolume> tissue;
+  if (by_tissue) {
+    tissue = tissue_volume_from_cli(f.volume, f.fem_mesh, force_options);
+  }
+  engine::DensityField field =
+      tissue ? std::move(tissue->field) : engine::load_volume(f.volume, mapping);
   // Realtime sculpting: the force thread reads one of two buffers the relaxation updates.
   std::unique_ptr<haptics::DoubleBufferedField> buffers;
   if (f.realtime && f.plastic) buffers = std::make_unique<haptics::DoubleBufferedField>(field);
-  const engine::ToolForceModel model(buffers ? buffers->buffer(0) : field, force_options);
+  const engine::ToolForceModel model(buffers ? buffers->buffer(0) : field, force_options,
+                                     tissue ? &tissue->tissue : nullptr);
   const haptics::DeviceTransform transform = f.transform.resolve(trace, field);
   haptics::ResampleOptions resample_options;
   resample_options.rate_hz = f.trace.rate_hz;
@@ -95,6 +105,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device);
 
+  if (tissue) write_tissue_attributes(session, f.fem_mesh.materials, tissue->tissue);
   session.set_attribute("plastic", std::int64_t{f.plastic ? 1 : 0});
   if (f.plastic) {
     session.set_attribute("yield_stress_pa", force_options.plastic.yield_stress_pa);
@@ -250,9 +261,8 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
                   "TO and the mesh is rebuilt in the background (repeatable)")
       ->allow_extra_args(false);
   for (const char* name :
-       {"--labels", "--seed", "--seed-tolerance", "--spacing-mm", "--boundary-levels",
-        "--interaction", "--fem-solver", "--coupling-n-per-mm", "--candidate-margin-mm",
-        "--fem-every-ticks", "--fem-rate-hz", "--relabel"}) {
+       {"--spacing-mm", "--boundary-levels", "--interaction", "--fem-solver", "--coupling-n-per-mm",
+        "--candidate-margin-mm", "--fem-every-ticks", "--fem-rate-hz", "--relabel"}) {
     flags->fem_only_options.push_back(cmd->get_option(name));
   }
   cmd->add_flag("--plastic", flags->plastic,

@@ -112,8 +112,10 @@ engine::labels::Seed parse_seed(const std::string& text, engine::labels::Label d
 }  // namespace
 
 void add_fem_options(CLI::App& app, FemCliOptions& options) {
-  app.add_option("--materials", options.materials,
-                 "Materials TOML file: E, nu and fixed per label (docs/materials.md)");
+  app.add_option(
+      "--materials", options.materials,
+      "Materials TOML file: per label E, nu, fixed (the proxy mesh), density and yield stress "
+      "(the voxel model's materials by tissue); docs/materials.md");
   auto* labels = app.add_option("--labels", options.labels,
                                 "Label volume (integer voxels, same grid as the volume)");
   auto* seeds = app.add_option("--seed", options.seeds,
@@ -146,13 +148,13 @@ std::vector<InputPath> fem_inputs(const FemCliOptions& options) {
   return inputs;
 }
 
-ProxyInputs proxy_inputs_from_cli(const std::string& volume_spec, const FemCliOptions& options,
-                                  const std::optional<engine::fem::Region>& tool_region) {
+LabelledVolume labelled_volume_from_cli(const std::string& volume_spec,
+                                        const FemCliOptions& options, const std::string& who) {
   if (options.materials.empty()) {
     throw InputError("--materials", "the proxy model needs a materials file");
   }
   // The cheap checks first: a bad materials file or seed fails before the volume is read.
-  const engine::labels::Materials materials = engine::labels::read_materials(options.materials);
+  engine::labels::Materials materials = engine::labels::read_materials(options.materials);
   engine::proxy::LabelSourceOptions source;
   source.intensity_name = volume_spec;
   source.label_volume = options.labels;
@@ -164,20 +166,28 @@ ProxyInputs proxy_inputs_from_cli(const std::string& volume_spec, const FemCliOp
   if (options.seed_tolerance >= 0) source.seed_tolerance = options.seed_tolerance;
   const engine::RawVolume intensity = engine::labels::read_scalar_volume(volume_spec);
   if (intensity.direction != engine::Mat3d::Identity()) {
-    // Labels, mesh and FEM are axis-aligned; turning tools into their frame is not done yet.
-    throw InputError(volume_spec,
-                     "the proxy-FEM model needs a volume whose index axes are world x, y, z "
-                     "(this one's direction cosines are not the identity)");
+    // Label maps are axis-aligned; turning them (and seeds) into the volume's frame is not
+    // done yet.
+    throw InputError(volume_spec, who +
+                                      " a volume whose index axes are world x, y, z "
+                                      "(this one's direction cosines are not the identity)");
   }
   for (const auto& seed : seeds_from_picks(intensity, volume_spec, options.pick, picks)) {
     source.seeds.push_back(seed);
   }
   engine::labels::LabelMap labels = engine::proxy::proxy_labels(intensity, materials, source);
+  return LabelledVolume{std::move(materials), std::move(labels)};
+}
+
+ProxyInputs proxy_inputs_from_cli(const std::string& volume_spec, const FemCliOptions& options,
+                                  const std::optional<engine::fem::Region>& tool_region) {
+  LabelledVolume labelled =
+      labelled_volume_from_cli(volume_spec, options, "the proxy-FEM model needs");
   engine::proxy::ProxyMeshOptions mesh_options;
   mesh_options.coarse_spacing_mm = options.spacing_mm;
   mesh_options.boundary_levels = options.boundary_levels;
   mesh_options.tool_region = tool_region;
-  return ProxyInputs{materials, std::move(labels), mesh_options};
+  return ProxyInputs{std::move(labelled.materials), std::move(labelled.labels), mesh_options};
 }
 
 engine::proxy::ProxyMesh build_proxy_from_cli(

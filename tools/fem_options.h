@@ -61,6 +61,19 @@ void add_fem_options(CLI::App& app, FemCliOptions& options);
 /// The files the options read (materials, label volume), for check_outputs_spare_inputs.
 std::vector<InputPath> fem_inputs(const FemCliOptions& options);
 
+/// A volume's labels and the materials file they index.
+struct LabelledVolume {
+  engine::labels::Materials materials;
+  engine::labels::LabelMap labels;
+};
+
+/// Reads the materials and makes the labels of `volume_spec` (a volume file or generator,
+/// read unmapped): from a label volume (--labels), seeds (--seed, --pick) or the file's
+/// intensity ranges. A turned volume is refused with "VOLUME: `who` a volume whose index
+/// axes are world x, y, z (...)".
+LabelledVolume labelled_volume_from_cli(const std::string& volume_spec,
+                                        const FemCliOptions& options, const std::string& who);
+
 /// What a proxy mesh is built from: the materials, the labels and the mesh options.
 struct ProxyInputs {
   engine::labels::Materials materials;

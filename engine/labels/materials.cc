@@ -17,8 +17,9 @@ using detail::number;
 
 namespace {
 
-constexpr std::array<std::string_view, 6> kMaterialKeys = {
-    "label", "name", "youngs_modulus_pa", "poisson_ratio", "fixed", "intensity"};
+constexpr std::array<std::string_view, 8> kMaterialKeys = {
+    "label", "name",      "youngs_modulus_pa", "poisson_ratio",
+    "fixed", "intensity", "density",           "yield_stress_pa"};
 constexpr std::array<std::string_view, 5> kRegionKeys = {"label", "side", "fraction", "min_mm",
                                                          "max_mm"};
 constexpr std::array<std::string_view, 6> kSideNames = {"-x", "+x", "-y", "+y", "-z", "+z"};
@@ -154,6 +155,18 @@ Material parse_material(const Reporter& r, const toml::table& table) {
         r.fail(*node, "fixed must be true or false, got " + type_name(node->type()));
       }
       m.fixed = node->value<bool>().value_or(false);
+    } else if (key == "density") {
+      const double rho = number_of(r, key, *node);
+      if (!(rho >= 0.0 && rho <= 1.0)) {
+        r.fail(*node, "density must lie in [0, 1], got " + number(rho));
+      }
+      m.density = rho;
+    } else if (key == "yield_stress_pa") {
+      const double yield = number_of(r, key, *node);
+      if (!(std::isfinite(yield) && yield > 0.0)) {
+        r.fail(*node, "yield stress must be positive and finite, got " + number(yield) + " Pa");
+      }
+      m.yield_stress_pa = yield;
     } else {  // intensity
       const auto v = numbers_of(r, key, *node, 2, "an array [low, high] of two numbers");
       if (v[0] > v[1]) {
@@ -304,9 +317,11 @@ Materials read_materials(const std::string& path) {
   return parse_materials(read_text_file(path), path);
 }
 
-void check_labels_have_materials(const LabelMap& map, const Materials& materials) {
+void check_labels_have_materials(const LabelMap& map, const Materials& materials,
+                                 bool background_needs_material) {
   std::vector<std::pair<Label, std::int64_t>> missing;
   for (const auto& [label, count] : map.voxel_counts()) {
+    if (label == 0 && !background_needs_material) continue;
     if (materials.find(label) == nullptr) missing.emplace_back(label, count);
   }
   if (missing.empty()) return;

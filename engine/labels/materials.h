@@ -27,7 +27,15 @@ struct Material {
   ElasticMaterial elastic;
   bool fixed = false;  // fixed: its voxels never move (Dirichlet); else deformable
   std::optional<IntensityRange> intensity;
+  /// The voxel model's density for the label's voxels, in [0, 1] (docs/materials.md).
+  std::optional<double> density;
+  /// The voxel model's yield stress sigma_f (Pa) for the label; absent: the command's.
+  std::optional<double> yield_stress_pa;
   int line = 0;  // of its [[material]] header
+
+  /// The density the voxel model gives the label's voxels: `density`, else 1 for a label
+  /// and 0 for the background (label 0), which stays empty unless the file says otherwise.
+  double voxel_density() const { return density ? *density : (label == 0 ? 0.0 : 1.0); }
 };
 
 /// A region of material held in place: either a box in world millimetres, or the outer
@@ -72,8 +80,9 @@ Materials read_materials(const std::string& path);
 
 /// Every label present in `map` has a material, else InputError(materials.source,
 /// "label 3 has no material (120 voxels)") (several: "labels 3 (120 voxels), 5 (7 voxels)
-/// have no material").
-void check_labels_have_materials(const LabelMap& map, const Materials& materials);
+/// have no material"). Without `background_needs_material`, label 0 may go without one.
+void check_labels_have_materials(const LabelMap& map, const Materials& materials,
+                                 bool background_needs_material = true);
 
 /// The fixed regions as world boxes on `map`. Throws InputError("FILE:LINE", ...) when a
 /// region's side names a label the map does not hold.

@@ -291,6 +291,34 @@ TEST(Realtime, ForceLoopDoesNotAllocateAfterStart) {
   delete probe;
 }
 
+// Materials by tissue: the force thread reads each quadrature point's slot through its own
+// accessor (made before the loop) and the table, and allocates nothing either.
+TEST(Realtime, TissueForceLoopDoesNotAllocateAfterStart) {
+  const engine::DensityField field = engine::generate_volume("block:dims=48");
+  auto slots = openvdb::Int32Grid::create(0);
+  auto accessor = slots->getAccessor();
+  for (int i = 0; i < 48; ++i)
+    for (int j = 0; j < 48; ++j)
+      for (int k = 0; k < 48; ++k) accessor.setValue({i, j, k}, i < 24 ? 1 : 2);
+  // The press lands on x = 24.3 mm: both tissues under the tool.
+  const engine::TissueMap tissue(
+      {{"", {100e3, 0.3}, 10e3}, {"soft", {50e3, 0.3}, 10e3}, {"hard", {400e3, 0.45}, 10e3}},
+      slots);
+  engine::ToolForceOptions elastic = fixtures::clay_tool();
+  elastic.plastic.enabled = false;
+  const engine::ToolForceModel model(field, elastic, &tissue);
+  std::uint64_t at_start = 0;
+  std::uint64_t during = ~0ull;
+  RealtimeOptions options;
+  options.hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
+  options.hooks.loop_finished = [&] { during = allocations_on_this_thread - at_start; };
+  TimingSummary timing;
+  const ReplaySummary summary = replay_realtime(model, press_and_hold_device(0.3), DeviceLimits{},
+                                                nullptr, {}, nullptr, nullptr, &timing, options);
+  EXPECT_EQ(during, 0u);
+  EXPECT_GT(summary.peak_force_n, 0.1);  // it pressed both tissues
+}
+
 // The proxy-FEM force stage (press LCP and grab solve on the FEM thread's snapshots) on the
 // realtime force thread, with the FEM thread publishing snapshots beside it.
 std::uint64_t fem_force_thread_allocations(FemInteraction interaction, double& peak_force_n) {

@@ -3,7 +3,7 @@
 //
 // Built as a libFuzzer binary (materials_fuzz) where the compiler has -fsanitize=fuzzer
 // (clang): `materials_fuzz -max_total_time=60 CORPUS_DIR data/four_spheres.toml`. With
-// HAPVOX_FUZZ_REPLAY (in label_tests, any compiler) a test feeds it the bundled file and
+// HAPVOX_FUZZ_REPLAY (in label_tests, any compiler) a test feeds it the bundled files and
 // thousands of seeded random mutations of it (byte flips, inserts, deletes, splices).
 
 #include <cstddef>
@@ -45,14 +45,17 @@ namespace {
 using hapvox::testing::mutate;
 
 TEST(MaterialsFuzz, MutationsOfTheBundledFileParseOrGiveOneLineErrors) {
-  const std::string seed =
-      hapvox::testing::read_file(hapvox::testing::source_path("data/four_spheres.toml"));
-  ASSERT_FALSE(seed.empty());
+  // The bundled files: the proxy model's (fixed regions) and the voxel model's (yield).
+  const std::string seeds[2] = {
+      hapvox::testing::read_file(hapvox::testing::source_path("data/four_spheres.toml")),
+      hapvox::testing::read_file(hapvox::testing::source_path("data/engine_tissues.toml"))};
+  ASSERT_FALSE(seeds[0].empty());
+  ASSERT_FALSE(seeds[1].empty());
   std::mt19937_64 rng(20240509);
   int parsed = 0;
   int rejected = 0;
   for (int i = 0; i < 20000; ++i) {
-    const std::string input = mutate(seed, rng);
+    const std::string input = mutate(seeds[i % 2], rng);
     try {
       hapvox::engine::labels::parse_materials(input, "fuzz.toml");
       ++parsed;

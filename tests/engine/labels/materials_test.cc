@@ -36,6 +36,8 @@ youngs_modulus_pa = 15_000_000_000
 poisson_ratio = -0.2
 fixed = true
 intensity = [300, 3000]
+density = 0.75
+yield_stress_pa = 2e6
 
 [[fixed_region]]
 min_mm = [0, 0, 0]
@@ -53,6 +55,9 @@ TEST(Materials, ParsesEveryKey) {
   EXPECT_FALSE(m.materials[0].fixed);
   EXPECT_FALSE(m.materials[0].intensity);
   EXPECT_EQ(m.materials[0].line, 2);
+  EXPECT_FALSE(m.materials[0].density);
+  EXPECT_FALSE(m.materials[0].yield_stress_pa);
+  EXPECT_EQ(m.materials[0].voxel_density(), 0.0);  // the background stays empty
   const Material* bone = m.find(7);
   ASSERT_NE(bone, nullptr);
   EXPECT_EQ(bone->name, "bone");
@@ -64,6 +69,12 @@ TEST(Materials, ParsesEveryKey) {
   EXPECT_EQ(bone->intensity->low, 300.0);
   EXPECT_EQ(bone->intensity->high, 3000.0);
   EXPECT_EQ(bone->line, 7);
+  EXPECT_EQ(bone->density, 0.75);
+  EXPECT_EQ(bone->voxel_density(), 0.75);
+  EXPECT_EQ(bone->yield_stress_pa, 2e6);
+  Material unnamed;
+  unnamed.label = 3;
+  EXPECT_EQ(unnamed.voxel_density(), 1.0);  // a label without a density is full
   EXPECT_EQ(m.find(3), nullptr);
   ASSERT_EQ(m.intensity_ranges().size(), 1u);
   EXPECT_EQ(m.intensity_ranges()[0].label, 7);
@@ -73,7 +84,7 @@ TEST(Materials, ParsesEveryKey) {
   EXPECT_FALSE(m.fixed_regions[0].label);
   EXPECT_EQ(m.fixed_regions[0].min_mm, Vec3d(0.0, 0.0, 0.0));
   EXPECT_EQ(m.fixed_regions[0].max_mm, Vec3d(1.5, 2.0, 3.0));
-  EXPECT_EQ(m.fixed_regions[0].line, 15);
+  EXPECT_EQ(m.fixed_regions[0].line, 17);
 }
 
 // Each bad file gives exactly this one line (what() of the InputError, as the CLI prints it
@@ -148,6 +159,16 @@ TEST(Materials, EachBadFileGivesItsOneLine) {
        "m.toml:4: Poisson's ratio must lie in (-1, 0.5), got -1"},
       {"[[material]]\nlabel = 1\nyoungs_modulus_pa = 1e6\npoisson_ratio = nan\n",
        "m.toml:4: Poisson's ratio must lie in (-1, 0.5), got nan"},
+      {"[[material]]\nlabel = 1\ndensity = 1.5\n", "m.toml:3: density must lie in [0, 1], got 1.5"},
+      {"[[material]]\nlabel = 1\ndensity = -0.1\n",
+       "m.toml:3: density must lie in [0, 1], got -0.1"},
+      {"[[material]]\nlabel = 1\ndensity = nan\n", "m.toml:3: density must lie in [0, 1], got nan"},
+      {"[[material]]\nlabel = 1\ndensity = \"full\"\n",
+       "m.toml:3: density must be a number, got a string"},
+      {"[[material]]\nlabel = 1\nyield_stress_pa = 0\n",
+       "m.toml:3: yield stress must be positive and finite, got 0 Pa"},
+      {"[[material]]\nlabel = 1\nyield_stress_pa = inf\n",
+       "m.toml:3: yield stress must be positive and finite, got inf Pa"},
       // Of two problems, the first in the file is reported (toml++ keeps keys sorted).
       {"[[material]]\nyoungs_modulus_pa = \"x\"\nlabel = 1.5\n",
        "m.toml:2: youngs_modulus_pa must be a number, got a string"},
@@ -155,10 +176,10 @@ TEST(Materials, EachBadFileGivesItsOneLine) {
       {ok + "\n" + ok, "m.toml:7: label 1 is given twice (first at line 1)"},
       {"[[material]]\nlabel = 1\nyoungs_modulus = 1e6\n",
        "m.toml:3: unknown key 'youngs_modulus' in [[material]] (expected label, name, "
-       "youngs_modulus_pa, poisson_ratio, fixed, intensity)"},
+       "youngs_modulus_pa, poisson_ratio, fixed, intensity, density, yield_stress_pa)"},
       {"[[material]]\nlabel = 1\nelastic = { e = 1 }\n",
        "m.toml:3: unknown key 'elastic' in [[material]] (expected label, name, "
-       "youngs_modulus_pa, poisson_ratio, fixed, intensity)"},
+       "youngs_modulus_pa, poisson_ratio, fixed, intensity, density, yield_stress_pa)"},
       // Fixed regions.
       {ok + "[[fixed_region]]\nlabel = 1\n",
        "m.toml:5: [[fixed_region]] needs either side (with label) or min_mm and max_mm"},
