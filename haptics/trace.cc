@@ -21,6 +21,8 @@
 #include "engine/check.h"
 #include "engine/errors.h"
 #include "haptics/hdf5_id.h"
+#include "haptics/trace_h3d.h"
+#include "haptics/trace_raw.h"
 
 namespace hapvox::haptics {
 namespace {
@@ -105,53 +107,6 @@ void check_scales(const std::string& source, const TraceColumns& columns) {
     throw InputError(source, "position scale must be positive and finite (got " +
                                  format_double(columns.mm_per_position_unit) + ")");
   }
-}
-
-// Raw values as read (file units) with a way to name sample i ("line 7", "index 6").
-struct RawTrace {
-  std::vector<double> time;
-  std::vector<std::array<double, 3>> position;
-  std::function<std::string(std::size_t)> where;
-  std::string kind;  // "column" or "dataset"
-};
-
-// The checks shared by CSV and HDF5: finite values, increasing time, two samples; then
-// unit scaling. Scaled values are checked again since scaling can overflow.
-Trace finish_trace(const std::string& source, const TraceColumns& columns, const RawTrace& raw) {
-  const std::size_t n = raw.time.size();
-  HAPVOX_CHECK_EQ(n, raw.position.size());
-  const auto not_finite = [&](std::size_t i, const std::string& name, bool scaled) {
-    return InputError(source, raw.where(i) + ": " + raw.kind + " '" + name +
-                                  "': NaN or infinite value" +
-                                  (scaled ? " after unit scaling" : ""));
-  };
-  Trace trace;
-  trace.time_s.reserve(n);
-  trace.position_mm.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!std::isfinite(raw.time[i])) throw not_finite(i, columns.time, false);
-    for (int a = 0; a < 3; ++a) {
-      if (!std::isfinite(raw.position[i][a])) throw not_finite(i, columns.position[a], false);
-    }
-    const double t = raw.time[i] * columns.seconds_per_time_unit;
-    const Vec3d p = Vec3d(raw.position[i][0], raw.position[i][1], raw.position[i][2]) *
-                    columns.mm_per_position_unit;
-    if (!std::isfinite(t)) throw not_finite(i, columns.time, true);
-    for (int a = 0; a < 3; ++a) {
-      if (!std::isfinite(p[a])) throw not_finite(i, columns.position[a], true);
-    }
-    if (i > 0 && !(t > trace.time_s.back())) {
-      throw InputError(source, raw.where(i) + ": time " + format_double(raw.time[i]) +
-                                   " does not increase (previous " +
-                                   format_double(raw.time[i - 1]) + ")");
-    }
-    trace.time_s.push_back(t);
-    trace.position_mm.push_back(p);
-  }
-  if (n < 2) {
-    throw InputError(source, "need at least 2 samples, found " + std::to_string(n));
-  }
-  return trace;
 }
 
 // Writes through PATH.partial and renames, so a reader never sees a half-written file.
@@ -246,16 +201,89 @@ bool finite(const Vec3d& v) { return v.allFinite(); }
 
 }  // namespace
 
-// --- CSV --------------------------------------------------------------------------------
+using detail::finish_trace;
+using detail::RawTrace;
 
-Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
-  check_scales(path, columns);
+namespace detail {
+
+Trace finish_trace(const std::string& source, const TraceColumns& columns, const RawTrace& raw) {
+  const std::size_t n = raw.time.size();
+  HAPVOX_CHECK_EQ(n, raw.position.size());
+  HAPVOX_CHECK(raw.orientation.empty() || raw.orientation.size() == n);
+  const auto not_finite = [&](std::size_t i, const std::string& name, bool scaled) {
+    return InputError(source, raw.where(i) + ": " + raw.kind + " '" + name +
+                                  "': NaN or infinite value" +
+                                  (scaled ? " after unit scaling" : ""));
+  };
+  Trace trace;
+  trace.time_s.reserve(n);
+  trace.position_mm.reserve(n);
+  trace.orientation.reserve(raw.orientation.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(raw.time[i])) throw not_finite(i, columns.time, false);
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(raw.position[i][a])) throw not_finite(i, columns.position[a], false);
+    }
+    const double t = raw.time[i] * columns.seconds_per_time_unit;
+    const Vec3d p = Vec3d(raw.position[i][0], raw.position[i][1], raw.position[i][2]) *
+                    columns.mm_per_position_unit;
+    if (!std::isfinite(t)) throw not_finite(i, columns.time, true);
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(p[a])) throw not_finite(i, columns.position[a], true);
+    }
+    if (i > 0 && !(t > trace.time_s.back())) {
+      throw InputError(source, raw.where(i) + ": time " + format_double(raw.time[i]) +
+                                   " does not increase (previous " +
+                                   format_double(raw.time[i - 1]) + ")");
+    }
+    trace.time_s.push_back(t);
+    trace.position_mm.push_back(p);
+    if (!raw.orientation.empty()) {
+      const auto& q = raw.orientation[i];
+      for (int c = 0; c < 4; ++c) {
+        if (!std::isfinite(q[c])) throw not_finite(i, columns.orientation[c], false);
+      }
+      Eigen::Quaterniond unit(q[0], q[1], q[2], q[3]);
+      const double norm = unit.norm();
+      // Far from 1 is a wrong column, not rounding: a quaternion of any scale is fine,
+      // one of (nearly) zero length has no direction.
+      if (!(norm > 1e-9) || !std::isfinite(norm)) {
+        throw InputError(source, raw.where(i) + ": orientation (" + format_double(q[0]) + ", " +
+                                     format_double(q[1]) + ", " + format_double(q[2]) + ", " +
+                                     format_double(q[3]) + ") is not a rotation (zero length)");
+      }
+      unit.coeffs() /= norm;
+      trace.orientation.push_back(unit);
+    }
+  }
+  if (n < 2) {
+    throw InputError(source, "need at least 2 samples, found " + std::to_string(n));
+  }
+  return trace;
+}
+
+std::string read_trace_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in || std::filesystem::is_directory(path)) throw InputError(path, "cannot open file");
   std::stringstream buffer;
   buffer << in.rdbuf();
   std::string text = buffer.str();
   if (text.starts_with("\xEF\xBB\xBF")) text.erase(0, 3);
+  return text;
+}
+
+}  // namespace detail
+
+// --- CSV --------------------------------------------------------------------------------
+
+Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
+  check_scales(path, columns);
+  return parse_csv_trace(detail::read_trace_text(path), path, columns);
+}
+
+Trace parse_csv_trace(const std::string& text, const std::string& path,
+                      const TraceColumns& columns) {
+  check_scales(path, columns);
   // A binary file (an .h5, a volume, an archive) is not read as lines: no CSV holds a NUL.
   if (text.find('\0') != std::string::npos) {
     throw InputError(path, "not a CSV text file (it holds NUL bytes: binary data?)");
@@ -301,6 +329,10 @@ Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
   const std::size_t time_index = find_column(columns.time);
   std::array<std::size_t, 3> position_index;
   for (int a = 0; a < 3; ++a) position_index[a] = find_column(columns.position[a]);
+  std::array<std::size_t, 4> orientation_index{};
+  if (columns.has_orientation()) {
+    for (int c = 0; c < 4; ++c) orientation_index[c] = find_column(columns.orientation[c]);
+  }
 
   RawTrace raw;
   raw.kind = "column";
@@ -324,6 +356,10 @@ Trace read_csv_trace(const std::string& path, const TraceColumns& columns) {
     raw.time.push_back(number(time_index));
     raw.position.push_back(
         {number(position_index[0]), number(position_index[1]), number(position_index[2])});
+    if (columns.has_orientation()) {
+      raw.orientation.push_back({number(orientation_index[0]), number(orientation_index[1]),
+                                 number(orientation_index[2]), number(orientation_index[3])});
+    }
     line_numbers.push_back(line_number);
   }
   raw.where = [&](std::size_t i) { return "line " + std::to_string(line_numbers[i]); };
@@ -379,6 +415,20 @@ Trace read_h5_trace(const std::string& path, const TraceColumns& columns) {
   for (std::size_t i = 0; i < raw.time.size(); ++i) {
     raw.position[i] = {position[0][i], position[1][i], position[2][i]};
   }
+  if (columns.has_orientation()) {
+    std::array<std::vector<double>, 4> q;
+    for (int c = 0; c < 4; ++c) {
+      q[c] = read_h5_column(path, file.get(), columns.orientation[c]);
+      if (q[c].size() != raw.time.size()) {
+        throw InputError(path, "dataset '" + columns.orientation[c] + "' has " +
+                                   std::to_string(q[c].size()) + " values but dataset '" +
+                                   columns.time + "' has " + std::to_string(raw.time.size()));
+      }
+    }
+    for (std::size_t i = 0; i < raw.time.size(); ++i) {
+      raw.orientation.push_back({q[0][i], q[1][i], q[2][i], q[3][i]});
+    }
+  }
   raw.where = [](std::size_t i) { return "index " + std::to_string(i); };
   return finish_trace(path, columns, raw);
 }
@@ -408,7 +458,9 @@ void write_h5_trace(const Trace& trace, const std::string& path) {
 }
 
 Trace read_trace(const std::string& path, const TraceColumns& columns) {
-  return has_h5_extension(path) ? read_h5_trace(path, columns) : read_csv_trace(path, columns);
+  if (has_h5_extension(path)) return read_h5_trace(path, columns);
+  if (is_h3d_device_log(path)) return read_h3d_device_log(path);
+  return read_csv_trace(path, columns);
 }
 
 // --- Transforms ---------------------------------------------------------------------------
@@ -491,6 +543,12 @@ ResampledTrace resample(const Trace& trace, const ResampleOptions& options) {
   out.time_s.reserve(ticks);
   out.position_mm.reserve(ticks);
   out.holding.reserve(ticks);
+  const std::vector<Eigen::Quaterniond>& q = trace.orientation;
+  const bool turning = !q.empty();
+  if (turning) {
+    HAPVOX_CHECK_EQ(q.size(), n);
+    out.orientation.reserve(ticks);
+  }
 
   for (std::size_t i = 0; i + 1 < n; ++i) {
     const double dt = t[i + 1] - t[i];
@@ -508,18 +566,23 @@ ResampledTrace resample(const Trace& trace, const ResampleOptions& options) {
     const double dt = t[j + 1] - t[j];
     Vec3d position;
     std::uint8_t holding = 0;
+    double u = 0.0;  // along the step j -> j + 1
     if (tick >= t[j + 1]) {
-      position = p[j + 1];  // only at (or within rounding past) the last sample
+      u = 1.0;  // only at (or within rounding past) the last sample
+      position = p[j + 1];
     } else if (dt > options.max_gap_s) {
       position = p[j];
       holding = tick > t[j] ? 1 : 0;
     } else {
-      const double u = std::clamp((tick - t[j]) / dt, 0.0, 1.0);
+      u = std::clamp((tick - t[j]) / dt, 0.0, 1.0);
       position = p[j] + u * (p[j + 1] - p[j]);
     }
     out.time_s.push_back(tick);
     out.position_mm.push_back(position);
     out.holding.push_back(holding);
+    // The orientation turns along the shorter arc between the samples, as the position
+    // moves along the straight line.
+    if (turning) out.orientation.push_back(q[j].slerp(u, q[j + 1]));
   }
   return out;
 }

@@ -1,6 +1,7 @@
 #pragma once
-// Probe traces: reading and writing (CSV, HDF5), resampling to the loop rate, the
-// device-to-volume transform, and the synthetic trace generator behind `hapvox trace make`.
+// Probe traces: reading (CSV, HDF5, H3D DeviceLog text logs: haptics/trace_h3d.h) and
+// writing (CSV, HDF5), resampling to the loop rate, the device-to-volume transform, and the
+// synthetic trace generator behind `hapvox trace make`.
 //
 // Units inside hapvox: seconds and millimetres. Every user-facing failure throws
 // hapvox::InputError naming the file and the problem (with the CSV line number).
@@ -23,6 +24,10 @@ struct TraceColumns {
   std::array<std::string, 3> position = {"x", "y", "z"};
   double seconds_per_time_unit = 1.0;  // e.g. 1e-3 when the time column is in ms
   double mm_per_position_unit = 1.0;   // e.g. 1000 when positions are in metres
+  /// The stylus orientation as a quaternion's W,X,Y,Z columns (any scale: normalised on
+  /// reading); all empty (the default) when the trace has none.
+  std::array<std::string, 4> orientation = {};
+  bool has_orientation() const { return !orientation[0].empty(); }
 };
 
 /// A trace as recorded: strictly increasing, finite times (s) and finite positions (mm),
@@ -30,12 +35,19 @@ struct TraceColumns {
 struct Trace {
   std::vector<double> time_s;
   std::vector<Vec3d> position_mm;
+  /// The stylus orientation (unit quaternions, device space), one per sample; empty when
+  /// the trace has none. Kept for 6-DoF tools: the 3-DoF sphere does not turn.
+  std::vector<Eigen::Quaterniond> orientation;
 };
 
-/// Reads a CSV (header row; comma separated; extra columns ignored) or HDF5 (.h5/.hdf5)
-/// trace, chosen by extension.
+/// Reads a CSV (header row; comma separated; extra columns ignored), HDF5 (.h5/.hdf5, by
+/// extension) or H3D DeviceLog text trace (its header row names DeviceLog fields: the
+/// columns and units of `columns` do not apply, haptics/trace_h3d.h).
 Trace read_trace(const std::string& path, const TraceColumns& columns = {});
 Trace read_csv_trace(const std::string& path, const TraceColumns& columns = {});
+/// A CSV trace's text (after a byte-order mark); `source` names it in errors.
+Trace parse_csv_trace(const std::string& text, const std::string& source,
+                      const TraceColumns& columns = {});
 Trace read_h5_trace(const std::string& path, const TraceColumns& columns = {});
 
 /// Writes columns t,x,y,z (seconds, mm). Written to PATH.partial, then renamed.
@@ -75,8 +87,9 @@ struct ResampledTrace {
   std::vector<double> time_s;
   std::vector<Vec3d> position_mm;
   std::vector<std::uint8_t> holding;
-  int gap_count = 0;       // number of gaps found
-  double held_time_s = 0;  // total time spent holding across gaps
+  std::vector<Eigen::Quaterniond> orientation;  // slerped per tick; empty when none
+  int gap_count = 0;                            // number of gaps found
+  double held_time_s = 0;                       // total time spent holding across gaps
 };
 
 ResampledTrace resample(const Trace& trace, const ResampleOptions& options = {});

@@ -129,6 +129,9 @@ void TraceFlags::add_to(CLI::App& app) {
   app.add_option("--time-col", time_col, "Name of the trace's time column")->capture_default_str();
   app.add_option("--pos-cols", pos_cols, "Names of the X,Y,Z position columns")
       ->capture_default_str();
+  app.add_option("--orientation-cols", orientation_cols,
+                 "Names of the W,X,Y,Z columns of the stylus orientation (a quaternion), kept "
+                 "in the session as /device_orientation");
   app.add_option("--time-unit", time_unit, "Unit of the time column: s, ms, us")
       ->capture_default_str();
   app.add_option("--pos-unit", pos_unit, "Unit of the position columns: mm, cm, m, um")
@@ -148,6 +151,15 @@ haptics::TraceColumns TraceFlags::columns() const {
     throw InputError("--pos-cols", "expected three column names X,Y,Z, got '" + pos_cols + "'");
   }
   columns.position = {names[0], names[1], names[2]};
+  if (!orientation_cols.empty()) {
+    const auto turn = split(orientation_cols, ',');
+    if (turn.size() != 4 || turn[0].empty() || turn[1].empty() || turn[2].empty() ||
+        turn[3].empty()) {
+      throw InputError("--orientation-cols",
+                       "expected four column names W,X,Y,Z, got '" + orientation_cols + "'");
+    }
+    columns.orientation = {turn[0], turn[1], turn[2], turn[3]};
+  }
   columns.seconds_per_time_unit =
       unit_scale(time_unit, "--time-unit", {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}});
   columns.mm_per_position_unit =

@@ -37,10 +37,11 @@ struct MappingFlags {
   engine::IntensityMapping resolve() const;
 };
 
-/// --time-col, --pos-cols, --time-unit, --pos-unit.
+/// --time-col, --pos-cols, --orientation-cols, --time-unit, --pos-unit.
 struct TraceFlags {
   std::string time_col = "t";
   std::string pos_cols = "x,y,z";
+  std::string orientation_cols;  // "W,X,Y,Z" quaternion columns; "" for none
   std::string time_unit = "s";
   std::string pos_unit = "mm";
   double rate_hz = 1000.0;

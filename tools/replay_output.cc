@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "engine/errors.h"
+#include "haptics/trace_h3d.h"
 #include "tools/replay_command.h"
 
 namespace hapvox::cli {
@@ -89,6 +90,20 @@ void write_run_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
   session.set_attribute("trace_file", f.trace_path);
   session.set_attribute("trace_columns", columns.time + "," + f.trace.pos_cols);
   session.set_attribute("trace_units", f.trace.time_unit + "," + f.trace.pos_unit);
+  // An H3D DeviceLog names its own fields and units: the column flags did not apply.
+  if (haptics::is_h3d_device_log(f.trace_path)) {
+    session.set_attribute("trace_format", std::string("h3d-devicelog"));
+  }
+  // The stylus orientation per tick, for 6-DoF tools later (the sphere does not turn).
+  const std::vector<Eigen::Quaterniond>& turn = device.trace().orientation;
+  if (!turn.empty()) {
+    std::vector<double> wxyz;
+    wxyz.reserve(4 * turn.size());
+    for (const Eigen::Quaterniond& q : turn) {
+      wxyz.insert(wxyz.end(), {q.w(), q.x(), q.y(), q.z()});
+    }
+    session.write_array("device_orientation", wxyz, {turn.size(), 4}, "quaternion w,x,y,z");
+  }
   session.set_attribute("volume", f.volume);
   session.set_attribute("volume_mapping", mapping_text(mapping));
   session.set_attribute("volume_dims", field.dims().cast<double>().eval());

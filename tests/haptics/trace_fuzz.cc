@@ -1,0 +1,114 @@
+// Fuzz target for the trace text parsers (CSV and H3D DeviceLog): any bytes either parse
+// into a trace (at least two samples, increasing times, finite values, unit orientations)
+// or throw InputError whose message is one line naming the source; nothing else may escape,
+// crash or hang. The first byte picks the parser (even: CSV with orientation columns, odd:
+// DeviceLog).
+//
+// Built as a libFuzzer binary (trace_fuzz) where the compiler has -fsanitize=fuzzer (clang):
+// `trace_fuzz -max_total_time=60 CORPUS_DIR traces/`. With HAPVOX_FUZZ_REPLAY (in
+// haptics_tests, any compiler) a test feeds it seeded random mutations of a CSV trace with
+// orientation and of a DeviceLog.
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+
+#include "engine/errors.h"
+#include "haptics/trace.h"
+#include "haptics/trace_h3d.h"
+
+namespace {
+
+void check_trace(const hapvox::haptics::Trace& trace) {
+  if (trace.time_s.size() < 2 || trace.position_mm.size() != trace.time_s.size()) std::abort();
+  if (!trace.orientation.empty() && trace.orientation.size() != trace.time_s.size()) std::abort();
+  for (std::size_t i = 0; i < trace.time_s.size(); ++i) {
+    if (!std::isfinite(trace.time_s[i]) || !trace.position_mm[i].allFinite()) std::abort();
+    if (i > 0 && !(trace.time_s[i] > trace.time_s[i - 1])) std::abort();
+  }
+  for (const auto& q : trace.orientation) {
+    if (!(std::abs(q.norm() - 1.0) < 1e-9)) std::abort();
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return 0;
+  const bool device_log = (data[0] & 1) != 0;
+  const std::string text(reinterpret_cast<const char*>(data) + 1, size - 1);
+  const std::string source = "fuzz.trace";
+  try {
+    if (device_log) {
+      check_trace(hapvox::haptics::parse_h3d_device_log(text, source));
+    } else {
+      hapvox::haptics::TraceColumns columns;
+      columns.orientation = {"qw", "qx", "qy", "qz"};
+      check_trace(hapvox::haptics::parse_csv_trace(text, source, columns));
+    }
+  } catch (const hapvox::InputError& e) {
+    const std::string what = e.what();
+    if (what.rfind(source, 0) != 0 || what.find('\n') != std::string::npos || e.problem().empty()) {
+      std::abort();
+    }
+  }
+  return 0;
+}
+
+#ifdef HAPVOX_FUZZ_REPLAY
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include "fuzz_mutate.h"
+
+namespace {
+
+const char kCsv[] =
+    "t,x,y,z,qw,qx,qy,qz\n"
+    "0,1,2,3,1,0,0,0\n"
+    "0.001,1.5,2,3,0.9238795,0,0,0.3826834\n"
+    "0.002,2,2.5,3,0.7071068,0,0,0.7071068\n";
+
+const char kDeviceLog[] =
+    "TIME POSITION ORIENTATION VELOCITY BUTTONS FORCE TORQUE\n"
+    "0.00000 0.01000 0.02000 0.03000 0.00000 0.00000 1.00000 0.00000 0.00000 0.00000 0.00000 "
+    "0 0.00000 0.00000 0.00000 0.00000 0.00000 0.00000\n"
+    "0.00100 0.01100 0.02000 0.03000 0.00000 0.00000 1.00000 1.57080 0.10000 0.00000 0.00000 "
+    "1 0.00000 0.00000 0.50000 0.00000 0.00000 0.00000\n";
+
+TEST(TraceFuzz, MutationsOfACsvAndADeviceLogParseOrGiveOneLineErrors) {
+  std::mt19937_64 rng(20261203);
+  int parsed = 0;
+  int rejected = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const bool device_log = i % 2 == 1;
+    const std::string input = std::string(1, device_log ? '\1' : '\0') +
+                              hapvox::testing::mutate(device_log ? kDeviceLog : kCsv, rng);
+    try {
+      if (device_log) {
+        hapvox::haptics::parse_h3d_device_log(input.substr(1), "fuzz.trace");
+      } else {
+        hapvox::haptics::TraceColumns columns;
+        columns.orientation = {"qw", "qx", "qy", "qz"};
+        hapvox::haptics::parse_csv_trace(input.substr(1), "fuzz.trace", columns);
+      }
+      ++parsed;
+    } catch (const hapvox::InputError&) {
+      ++rejected;
+    }
+    LLVMFuzzerTestOneInput(reinterpret_cast<const std::uint8_t*>(input.data()), input.size());
+  }
+  // Both outcomes occur: the mutations reach past the header into the rows' checks.
+  EXPECT_GT(parsed, 100);
+  EXPECT_GT(rejected, 1000);
+  std::printf("trace fuzz corpus: %d parsed, %d rejected\n", parsed, rejected);
+}
+
+}  // namespace
+
+#endif  // HAPVOX_FUZZ_REPLAY
