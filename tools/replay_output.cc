@@ -109,6 +109,11 @@ void write_run_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
   session.set_attribute("volume_dims", field.dims().cast<double>().eval());
   session.set_attribute("voxel_size_mm", field.voxel_size_mm());
   session.set_attribute("volume_origin_mm", field.origin_mm());
+  // The index axes' world (LPS) directions, as columns: the volume's orientation.
+  std::ostringstream direction;
+  direction << field.direction().format(
+      Eigen::IOFormat(Eigen::FullPrecision, Eigen::DontAlignCols, ",", ";"));
+  session.set_attribute("volume_direction", direction.str());
   session.set_attribute("loop_rate_hz", device.rate_hz());
   session.set_attribute("clock", std::string(f.realtime ? "realtime" : "lockstep"));
   session.set_attribute("max_gap_s", f.trace.max_gap_s);
