@@ -33,12 +33,14 @@ engine::labels::TissueVolume tissue_volume_from_cli(const std::string& volume_sp
 void write_tissue_attributes(haptics::SessionWriter& session, const std::string& materials_path,
                              const engine::TissueMap& tissue) {
   session.set_attribute("materials", materials_path);
-  std::ostringstream lines;
+  // One line (`hapvox info` prints an attribute per line): the rows separated by "; ".
+  std::ostringstream rows;
   for (const engine::TissueMaterial& m : tissue.materials()) {
-    lines << m.name << ": E " << m.elastic.youngs_modulus_pa << " Pa, nu "
-          << m.elastic.poisson_ratio << ", sigma_f " << m.yield_stress_pa << " Pa\n";
+    if (rows.tellp() > 0) rows << "; ";
+    rows << m.name << ": E " << m.elastic.youngs_modulus_pa << " Pa, nu " << m.elastic.poisson_ratio
+         << ", sigma_f " << m.yield_stress_pa << " Pa";
   }
-  session.set_attribute("tissues", lines.str());
+  session.set_attribute("tissues", rows.str());
 }
 
 }  // namespace hapvox::cli

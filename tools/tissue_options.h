@@ -23,7 +23,8 @@ engine::labels::TissueVolume tissue_volume_from_cli(const std::string& volume_sp
                                                     const FemCliOptions& options,
                                                     const engine::ToolForceOptions& force);
 
-/// "materials" (the file) and "tissues" (one line per row: name, E, nu, sigma_f).
+/// "materials" (the file) and "tissues" (each row's name, E, nu and sigma_f, rows separated
+/// by "; ").
 void write_tissue_attributes(haptics::SessionWriter& session, const std::string& materials_path,
                              const engine::TissueMap& tissue);
 
