@@ -313,14 +313,20 @@ std::optional<std::string> overwrite_reason(const OutputPath& output, const fs::
 
 std::string volume_help() {
   return "Volume file (" + engine::io::volume_extensions_text(", ", ", ") +
-         "), folder of DICOM slices, or generator (" + engine::io::generator_names_text() + ")";
+         "; a .raw file as FILE.raw:dims=NXxNYxNZ,type=T[,endian=big,spacing_mm=SXxSYxSZ,...])"
+         ", folder of DICOM slices, or generator (" +
+         engine::io::generator_names_text() + ")";
 }
 
 std::vector<InputPath> volume_inputs(const std::string& spec) {
   std::vector<InputPath> inputs;
-  if (spec.empty() || !fs::exists(spec)) return inputs;
-  inputs.push_back({spec, "volume"});
-  if (const engine::io::VolumeFormat* format = engine::io::find_volume_format(spec)) {
+  if (spec.empty()) return inputs;
+  const engine::io::VolumeFormat* format = engine::io::find_volume_format(spec);
+  // A raw file's spec ("ct.raw:dims=...") is no file; the file it names is.
+  const bool file = fs::exists(spec);
+  if (!file && (format == nullptr || !format->takes_options)) return inputs;
+  if (file) inputs.push_back({spec, "volume"});
+  if (format != nullptr) {
     try {
       const std::string data = engine::io::companion_input(*format, spec);
       if (!data.empty()) inputs.push_back({data, "volume data file"});

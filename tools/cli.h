@@ -118,7 +118,8 @@ struct InputPath {
 std::string volume_help();
 
 /// The files a volume spec reads: none for a generator, the file itself, and the data file
-/// its header names (a detached NRRD, .mhd or .hdr header's).
+/// its header names (a detached NRRD, .mhd or .hdr header's); for a raw file's spec
+/// ("ct.raw:dims=..."), the file it names.
 std::vector<InputPath> volume_inputs(const std::string& spec);
 /// A --transfer value that names a file rather than a preset, as an input; else none.
 std::vector<InputPath> transfer_inputs(const std::string& spec);

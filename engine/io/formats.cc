@@ -9,6 +9,7 @@
 #include "engine/io/metaimage.h"
 #include "engine/io/nifti.h"
 #include "engine/io/nrrd.h"
+#include "engine/io/raw_file.h"
 #include "engine/io/text.h"
 #include "engine/io/vdb.h"
 
@@ -29,6 +30,10 @@ DensityField load_nifti(const std::string& path, const IntensityMapping& mapping
 
 DensityField load_dicom(const std::string& path, const IntensityMapping& mapping) {
   return load_samples(read_dicom(path), mapping, path);
+}
+
+DensityField load_raw_file(const std::string& spec, const IntensityMapping& mapping) {
+  return load_samples(read_raw_file(spec), mapping, spec);
 }
 
 RawVolume read_vdb_samples(const std::string& path) { return dense_intensity(read_vdb(path)); }
@@ -74,6 +79,12 @@ const std::vector<VolumeFormat>& volume_formats() {
        .reads_folders = true,
        .read_samples = read_dicom,
        .load = load_dicom},
+      {.name = "raw",
+       .extensions = {".raw"},
+       .takes_options = true,
+       .read_samples = read_raw_file,
+       .load = load_raw_file,
+       .data_file = raw_data_file},
   };
   return formats;
 }
@@ -89,6 +100,10 @@ const VolumeFormat* find_volume_format(const std::string& path) {
   const std::string name = lower(path);
   for (const VolumeFormat& format : volume_formats()) {
     for (const std::string& ext : format.extensions) {
+      if (format.takes_options) {  // "name.raw:options"
+        const std::size_t at = name.find(ext + ":");
+        if (at != std::string::npos && at > 0 && name[at - 1] != '/') return &format;
+      }
       // The extension must follow a file name, not be one: "dir/.nrrd" is no NRRD.
       if (ends_with(name, ext) && name.size() > ext.size() &&
           name[name.size() - ext.size() - 1] != '/') {

@@ -22,6 +22,9 @@ struct VolumeFormat {
   bool holds_samples = true;
   /// True when a folder is read as one volume (a DICOM series).
   bool reads_folders = false;
+  /// True when the file name may be followed by ':' and options (a raw file's layout:
+  /// "scan.raw:dims=...").
+  bool takes_options = false;
   /// The samples as stored (intensities, labels or densities), dense.
   RawVolume (*read_samples)(const std::string& path) = nullptr;
   /// A density field: scanner samples through the intensity mapping, densities as they are.

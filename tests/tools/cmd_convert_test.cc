@@ -143,6 +143,41 @@ TEST(HapvoxConvert, EveryFormatRoundTripsTheBundledCt) {
   EXPECT_EQ(total_density_of(info.out), total_density_of(first.out)) << info.out;
 }
 
+// A headerless raw file, its layout given on the command line, converts into a NRRD whose
+// samples, spacing and origin are the raw file's (read back by hapvox info).
+TEST(HapvoxConvert, ARawFileWithItsLayoutConverts) {
+  const std::string dir = scratch_dir();
+  // 4 x 3 x 2 big-endian int16 samples 0, 100, 200, ... behind 3 header bytes.
+  std::string bytes = "HDR";
+  for (int v = 0; v < 24; ++v) {
+    const int sample = 100 * v;
+    bytes += static_cast<char>((sample >> 8) & 0xff);
+    bytes += static_cast<char>(sample & 0xff);
+  }
+  write_text(dir + "/scan.raw", bytes);
+  const std::string spec = dir +
+                           "/scan.raw:dims=4x3x2,type=int16,endian=big,spacing_mm=0.5x2x3,"
+                           "origin_mm=-1x0x7,header_bytes=3";
+  const auto info = run_hapvox("info " + spec);
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("raw volume"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("4 x 3 x 2"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("int16"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("0 .. 2300"), std::string::npos) << info.out;
+  const auto converted = run_hapvox("convert " + spec + " " + dir + "/scan.nrrd --threshold 1150");
+  ASSERT_EQ(converted.exit_code, 0) << converted.err;
+  // The world box: origin -1,0,7 and spacing 0.5,2,3, voxel faces half a spacing out.
+  EXPECT_EQ(world_box_of(converted.out), (std::vector<double>{-1.25, 0.75, -1.0, 5.0, 5.5, 11.5}))
+      << converted.out;
+  // Samples >= 1150 (v >= 12: the upper slice) are solid: 12 voxels.
+  EXPECT_NE(converted.out.find("total density 12"), std::string::npos) << converted.out;
+  const auto wrong = run_hapvox("info " + dir + "/scan.raw:dims=4x3x2,type=int16");
+  EXPECT_EQ(wrong.exit_code, 2);
+  EXPECT_EQ(wrong.err, "hapvox: error: " + dir +
+                           "/scan.raw: holds 51 bytes, but 4x3x2 samples of int16 after 0 header "
+                           "bytes need 48\n");
+}
+
 TEST(HapvoxConvert, BadOutputsAreRefusedBeforeWriting) {
   const std::string dir = scratch_dir();
   const std::string in = oblique_nrrd(dir);

@@ -171,7 +171,7 @@ TEST(HapvoxCli, BadVolumesAreRejected) {
   EXPECT_NE(nan_run.err.find("NaN"), std::string::npos) << nan_run.err;
   expect_input_error(head + "cube",
                      "cube: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, "
-                     ".nii.gz, .hdr or .dcm, a folder of DICOM slices, or a generator: block, "
+                     ".nii.gz, .hdr, .dcm or .raw, a folder of DICOM slices, or a generator: block, "
                      "sphere, four-spheres)");
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(out + ".partial"));

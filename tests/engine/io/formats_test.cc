@@ -91,11 +91,11 @@ TEST(VolumeIoLoad, DispatchesByExtensionAndRejectsUnknown) {
                 .active_voxel_count(),
             4u);
 
-  write_file(dir + "/v.raw", kEightBytes);
+  write_file(dir + "/v.bin", kEightBytes);
   const std::string problem =
-      "unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz, .hdr or "
-      ".dcm, a folder of DICOM slices, or a generator";
-  expect_input_error([&] { load_volume(dir + "/v.raw", {}); }, dir + "/v.raw", problem);
+      "unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz, .hdr, "
+      ".dcm or .raw, a folder of DICOM slices, or a generator";
+  expect_input_error([&] { load_volume(dir + "/v.bin", {}); }, dir + "/v.bin", problem);
   expect_input_error([&] { load_volume(dir + "/missing.tiff", {}); }, dir + "/missing.tiff",
                      problem);
   expect_input_error([&] { load_volume("cube:dims=3", {}); }, "cube:dims=3", problem);
@@ -140,8 +140,13 @@ TEST(VolumeIoFormats, ExtensionsMatchInAnyCase) {
   EXPECT_STREQ(io::find_volume_format("x.MHD")->name, "MetaImage");
   EXPECT_EQ(io::find_volume_format("dir/.nrrd"), nullptr);
   EXPECT_EQ(io::find_volume_format("scan.gz"), nullptr);
+  // A raw file's layout follows its name.
+  EXPECT_STREQ(io::find_volume_format("ct.RAW:dims=2x2x2,type=uint8")->name, "raw");
+  EXPECT_STREQ(io::find_volume_format("ct.raw")->name, "raw");
+  EXPECT_EQ(io::find_volume_format("dir/.raw:dims=2x2x2"), nullptr);
+  EXPECT_EQ(io::find_volume_format("ct.rawx:dims=2x2x2"), nullptr);
   EXPECT_EQ(io::volume_extensions_text(", ", " or "),
-            ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz, .hdr or .dcm");
+            ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz, .hdr, .dcm or .raw");
   EXPECT_EQ(io::volume_extensions_text(", ", " or ", /*written=*/true),
             ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz or .hdr");
 }

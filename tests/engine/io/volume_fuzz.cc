@@ -1,5 +1,7 @@
 // Fuzz target for the volume readers (engine/io/formats.h): the first byte picks a format
-// (NRRD, MetaImage, NIfTI, gzip NIfTI), the rest is the file. Any bytes either read into a
+// (NRRD, MetaImage, NIfTI, gzip NIfTI, raw), the rest is the file; for a raw file, its first
+// line is the layout given after "FILE.raw:" (engine/io/raw_file.h) and the rest the file. Any
+// bytes either read into a
 // volume whose sizes match its samples or throw InputError whose message is one line
 // naming the file; nothing else may escape, crash, hang or allocate what a header claims.
 //
@@ -22,19 +24,26 @@
 
 namespace {
 
-constexpr std::array<const char*, 4> kExtensions = {".nrrd", ".mha", ".nii", ".nii.gz"};
+constexpr std::array<const char*, 5> kExtensions = {".nrrd", ".mha", ".nii", ".nii.gz", ".raw"};
 
 // Reads `bytes` as a file of the format `selector` picks: true when it reads, false on a
 // one-line InputError naming the file; aborts on anything else.
 bool read_as_volume(unsigned selector, const std::string& bytes, const std::string& dir) {
-  const std::string path =
-      dir + "/fuzz_" + std::to_string(getpid()) + kExtensions[selector % kExtensions.size()];
+  const std::string extension = kExtensions[selector % kExtensions.size()];
+  const std::string path = dir + "/fuzz_" + std::to_string(getpid()) + extension;
+  std::string spec = path;
+  std::string contents = bytes;
+  if (extension == ".raw") {  // the layout's line, then the file
+    const std::size_t newline = bytes.find('\n');
+    spec = path + ":" + bytes.substr(0, newline);
+    contents = newline == std::string::npos ? "" : bytes.substr(newline + 1);
+  }
   {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
   }
   try {
-    const hapvox::engine::io::RawVolume raw = hapvox::engine::io::read_scalar_volume(path);
+    const hapvox::engine::io::RawVolume raw = hapvox::engine::io::read_scalar_volume(spec);
     const auto samples = static_cast<std::size_t>(raw.dims.x()) *
                          static_cast<std::size_t>(raw.dims.y()) *
                          static_cast<std::size_t>(raw.dims.z());
@@ -96,13 +105,18 @@ TEST(VolumeFuzz, MutationsOfEveryFormatReadOrGiveOneLineErrors) {
       "TransformMatrix = 0 1 0 1 0 0 0 0 1\nOffset = 1 2 3\nElementType = MET_UCHAR\n"
       "ElementDataFile = LOCAL\n" +
       kEightBytes;
+  // A raw file: its layout's line, then the samples.
+  const std::string raw_file =
+      "dims=2x2x2,type=int8,endian=big,spacing_mm=1x2x3,origin_mm=-1x0x5\n" + kEightBytes;
   std::mt19937_64 rng(20261203);
   int read = 0, rejected = 0;
-  for (int i = 0; i < 6000; ++i) {
-    // Formats in turn; every fourth NRRD and MetaImage input from the uncompressed seeds.
-    const unsigned format = static_cast<unsigned>(i % 4);
-    const bool plain = format < 2 && (i / 4) % 2 == 1;
-    const std::string& seed = plain ? (format == 0 ? raw_nrrd : raw_mha) : seeds[format];
+  for (int i = 0; i < 7500; ++i) {
+    // Formats in turn; every other NRRD and MetaImage input from the uncompressed seeds.
+    const unsigned format = static_cast<unsigned>(i % 5);
+    const bool plain = format < 2 && (i / 5) % 2 == 1;
+    const std::string& seed = format == 4 ? raw_file
+                              : plain     ? (format == 0 ? raw_nrrd : raw_mha)
+                                          : seeds[format];
     (read_as_volume(format, hapvox::testing::mutate(seed, rng), dir) ? read : rejected)++;
   }
   // Both outcomes happen: a test whose mutations all fail early would fuzz nothing.

@@ -266,7 +266,7 @@ TEST(LabelVolume, BadValuesAndMismatchedGeometryNameTheFile) {
       input_error_of([&] { read_label_volume(dir + "/labels.png", intensity, "ct.nrrd"); }),
       dir +
           "/labels.png: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, "
-          ".nii.gz, .hdr or .dcm, a folder of DICOM slices, or a generator: block, sphere, "
+          ".nii.gz, .hdr, .dcm or .raw, a folder of DICOM slices, or a generator: block, sphere, "
           "four-spheres)");
 }
 
