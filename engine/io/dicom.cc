@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "engine/errors.h"
+#include "engine/io/child_read.h"
 #include "engine/io/direction.h"
 #include "engine/io/samples.h"
 #include "engine/io/text.h"
@@ -32,13 +33,22 @@ const gdcm::Tag kSliceThickness(0x0018, 0x0050);
 const gdcm::Tag kRows(0x0028, 0x0010);
 const gdcm::Tag kColumns(0x0028, 0x0011);
 
+// GDCM's warnings, kept: "Incomplete Pixel Data" there is the only sign GDCM gives of a file
+// that ends inside its pixels (it reads the missing ones as zeros).
+std::ostringstream& gdcm_warnings() {
+  static std::ostringstream warnings;
+  return warnings;
+}
+
 // GDCM reports through std::cerr unless told not to; hapvox says what went wrong itself.
+// Only ever called in the reader's child process (read_dicom), whose globals these are.
 void quiet_gdcm() {
   static std::once_flag once;
   std::call_once(once, [] {
     gdcm::Trace::SetDebug(false);
-    gdcm::Trace::SetWarning(false);
     gdcm::Trace::SetError(false);
+    gdcm::Trace::SetWarningStream(gdcm_warnings());
+    gdcm::Trace::SetWarning(true);
   });
 }
 
@@ -108,9 +118,8 @@ std::vector<std::string> candidate_files(const std::string& path) {
   return files;
 }
 
-}  // namespace
-
-RawVolume read_dicom(const std::string& path) {
+// read_dicom's work, in the child process.
+RawVolume read_dicom_here(const std::string& path) {
   quiet_gdcm();
   const std::vector<std::string> files = candidate_files(path);
   gdcm::Scanner scanner;
@@ -241,7 +250,11 @@ RawVolume read_dicom(const std::string& path) {
     const std::string& file = slices[k].file;
     gdcm::ImageReader reader;
     reader.SetFileName(file.c_str());
+    gdcm_warnings().str("");
     if (!reader.Read()) throw InputError(file, "GDCM cannot read its image");
+    if (gdcm_warnings().str().find("Incomplete Pixel Data") != std::string::npos) {
+      throw InputError(file, "its pixel data ends early (a truncated file)");
+    }
     const gdcm::Image& image = reader.GetImage();
     const unsigned int* dims = image.GetDimensions();
     if (image.GetNumberOfDimensions() == 3 && dims[2] > 1) {
@@ -281,6 +294,22 @@ RawVolume read_dicom(const std::string& path) {
   }
   set_min_max(&raw);
   return raw;
+}
+
+}  // namespace
+
+RawVolume read_dicom(const std::string& path) {
+  // What a series can need: its samples as floats (a compressed slice inflates up to ~10x its
+  // file: 12x covers the floats of a 2-byte sample besides), plus 256 MiB for GDCM's own
+  // (its dictionaries are mapped before the fork).
+  std::uint64_t file_bytes = 0;
+  std::error_code ec;
+  for (const std::string& file : candidate_files(path)) {
+    const std::uintmax_t size = fs::file_size(file, ec);
+    if (!ec) file_bytes += size;
+  }
+  return read_in_child_process(path, read_dicom_here, "GDCM",
+                               (std::uint64_t{256} << 20) + 12 * file_bytes);
 }
 
 }  // namespace hapvox::engine::io

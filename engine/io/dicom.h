@@ -20,7 +20,12 @@ namespace hapvox::engine::io {
 /// Throws InputError(PATH, ...) on: no DICOM file, several series, slices of different
 /// sizes or orientations, two slices at one position, gantry tilt (the slices step off their
 /// normal), non-uniform slice spacing (more than 1 % apart), colour or multi-frame images,
-/// more than 2^31 samples (before allocating), pixel data GDCM cannot decode.
+/// more than 2^31 samples (before allocating), pixel data GDCM cannot decode, a file that ends
+/// inside its pixel data (GDCM would read the rest as zeros).
+///
+/// GDCM runs in a child process (engine/io/child_read.h): Debian's build keeps its assertions,
+/// and a truncated or corrupt file trips them; then the child dies, not hapvox, and this
+/// throws InputError(PATH, "GDCM crashed reading it (signal 6, Aborted): ...").
 RawVolume read_dicom(const std::string& path);
 
 }  // namespace hapvox::engine::io

@@ -154,3 +154,43 @@ TEST(VolumeIoDicomErrors, TiltGapsDuplicatesAndMixedSeriesAreRefused) {
 
 }  // namespace
 }  // namespace hapvox::engine
+
+namespace hapvox::engine {
+namespace {
+
+// A DICOM file cut short, as a failed copy or download leaves it, is one line naming it,
+// never a crash (GDCM asserts on most cuts: its child process takes the abort) and never a
+// volume (GDCM reads a cut inside the pixels as zeros and only warns).
+TEST(VolumeIoDicomErrors, TruncatedFilesAreOneLineErrorsNotCrashesOrZeros) {
+  const std::string dir = scratch_dir();
+  const std::string ct = testing::read_file(kPydicomFiles + "CT_small.dcm");
+  ASSERT_EQ(ct.size(), 39206u);
+  const std::string crashed =
+      "GDCM crashed reading it (signal 6, Aborted): a corrupt or truncated file";
+  const std::string cut_pixels = "its pixel data ends early (a truncated file)";
+  // Where GDCM asserts: inside the meta header (132, 200), a sequence (1000), the last byte
+  // of the pixels (39205).
+  for (const auto& [bytes, problem] :
+       std::vector<std::pair<std::size_t, std::string>>{{132, crashed},
+                                                        {200, crashed},
+                                                        {1000, crashed},
+                                                        {10000, cut_pixels},
+                                                        {39000, cut_pixels},
+                                                        {39205, crashed}}) {
+    const std::string file = dir + "/cut_" + std::to_string(bytes) + ".dcm";
+    write_file(file, ct.substr(0, bytes));
+    EXPECT_EQ(testing::input_error_of([&] { io::read_dicom(file); }), file + ": " + problem);
+  }
+  // In a series folder, the file whose pixels are cut is named.
+  std::filesystem::create_directories(dir + "/series");
+  write_file(dir + "/series/README.txt", "not DICOM: skipped\n");
+  write_file(dir + "/series/b.dcm", ct.substr(0, 39000));
+  EXPECT_EQ(testing::input_error_of([&] { io::read_dicom(dir + "/series"); }),
+            dir + "/series/b.dcm: " + cut_pixels);
+  // The whole file still reads, through the same child process.
+  write_file(dir + "/whole.dcm", ct);
+  EXPECT_EQ(io::read_dicom(dir + "/whole.dcm").dims, Vec3i(128, 128, 1));
+}
+
+}  // namespace
+}  // namespace hapvox::engine
