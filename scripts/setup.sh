@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian packages hapvox needs to build, test and run.
+# Installs the Debian packages hapvox needs to build, test and run, and any named as
+# arguments (scripts/fuzz.sh adds clang).
 # Idempotent: prints nothing and touches nothing when all are present.
 set -euo pipefail
 
@@ -14,6 +15,7 @@ packages=(
   python3-nibabel mricron-data  # an independent NIfTI reader and real NIfTI files, for tests
   python3-pydicom  # DICOM test files and series written by another tool, for tests
   tetgen  # a program the mesh comparison runs (AGPL-3): never linked (docs/licences.md)
+  "$@"
 )
 
 missing=()

@@ -92,7 +92,8 @@ TetMesh regular_lattice(const std::array<int, 3>& vertices, double spacing_mm,
 
   TetMesh mesh;
   mesh.rest_mm.resize(3, static_cast<Eigen::Index>(nx) * ny * nz);
-  auto index = [&](int i, int j, int k) { return i + nx * (j + ny * k); };
+  // Captured by value: clang 14 (the fuzz build's) cannot capture structured bindings.
+  auto index = [nx = nx, ny = ny](int i, int j, int k) { return i + nx * (j + ny * k); };
   for (int k = 0; k < nz; ++k) {
     for (int j = 0; j < ny; ++j) {
       for (int i = 0; i < nx; ++i) {

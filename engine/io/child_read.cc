@@ -17,6 +17,9 @@
 
 #include "engine/errors.h"
 
+// Defined only when a sanitizer runtime is linked (the fuzz and sanitizer builds).
+extern "C" void __sanitizer_set_death_callback(void (*callback)()) __attribute__((weak));
+
 namespace hapvox::engine::io {
 namespace {
 
@@ -175,6 +178,14 @@ RawVolume read_in_child_process(const std::string& path, RawVolume (*read)(const
     // The library's own last words (an assertion's text) would make the error two lines.
     const int null_fd = ::open("/dev/null", O_WRONLY);
     if (null_fd >= 0) ::dup2(null_fd, STDERR_FILENO);
+    // A crash ends the child at once: no crash handler of the parent's (a fuzzer's, which
+    // would report the parent's input as crashing) runs in it.
+    for (const int signal : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE, SIGILL}) {
+      std::signal(signal, SIG_DFL);
+    }
+    // Likewise a sanitizer's death callback (libFuzzer's, which writes a crash file), run
+    // when the sanitizer's allocator meets the address-space cap.
+    if (__sanitizer_set_death_callback != nullptr) __sanitizer_set_death_callback(nullptr);
     limit_memory(budget_bytes);
     answer(fds[1], read, path, library, budget_bytes);
     ::close(fds[1]);

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "engine/errors.h"
+#include "fuzz_check.h"
 #include "haptics/trace.h"
 #include "haptics/trace_h3d.h"
 
@@ -49,10 +50,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       check_trace(hapvox::haptics::parse_csv_trace(text, source, columns));
     }
   } catch (const hapvox::InputError& e) {
-    const std::string what = e.what();
-    if (what.rfind(source, 0) != 0 || what.find('\n') != std::string::npos || e.problem().empty()) {
-      std::abort();
-    }
+    hapvox::testing::abort_unless_one_line_error(e, source);
   }
   return 0;
 }

@@ -21,6 +21,7 @@
 
 #include "engine/errors.h"
 #include "engine/io/formats.h"
+#include "fuzz_check.h"
 
 namespace {
 
@@ -51,10 +52,7 @@ bool read_as_volume(unsigned selector, const std::string& bytes, const std::stri
     std::filesystem::remove(path);
     return true;
   } catch (const hapvox::InputError& e) {
-    const std::string what = e.what();
-    if (what.rfind(path, 0) != 0 || what.find('\n') != std::string::npos || e.problem().empty()) {
-      std::abort();
-    }
+    hapvox::testing::abort_unless_one_line_error(e, path);
   }
   std::filesystem::remove(path);
   return false;

@@ -14,6 +14,7 @@
 
 #include "engine/errors.h"
 #include "engine/labels/materials.h"
+#include "fuzz_check.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
@@ -22,10 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const auto materials = hapvox::engine::labels::parse_materials(text, source);
     if (materials.materials.empty()) std::abort();  // the parser promises at least one
   } catch (const hapvox::InputError& e) {
-    const std::string what = e.what();
-    if (what.rfind(source, 0) != 0 || what.find('\n') != std::string::npos || e.problem().empty()) {
-      std::abort();
-    }
+    hapvox::testing::abort_unless_one_line_error(e, source);
   }
   return 0;
 }

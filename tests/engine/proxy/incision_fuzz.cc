@@ -16,6 +16,7 @@
 
 #include "engine/errors.h"
 #include "engine/proxy/incision_file.h"
+#include "fuzz_check.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
@@ -25,10 +26,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!(std::isfinite(incision.width_mm) && incision.width_mm > 0)) std::abort();
     if (incision.cut.triangles_mm.empty()) std::abort();
   } catch (const hapvox::InputError& e) {
-    const std::string what = e.what();
-    if (what.rfind(source, 0) != 0 || what.find('\n') != std::string::npos || e.problem().empty()) {
-      std::abort();
-    }
+    hapvox::testing::abort_unless_one_line_error(e, source);
   }
   return 0;
 }
