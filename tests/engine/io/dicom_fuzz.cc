@@ -105,7 +105,7 @@ TEST(DicomFuzz, MutationsOfRealFilesReadOrGiveOneLineErrors) {
   ASSERT_TRUE(read_as_dicom(1, 255, ct, dir));
   std::mt19937_64 rng(20261203);
   int read = 0, rejected = 0;
-  for (int i = 0; i < 800; ++i) {
+  for (int i = 0; i < 500; ++i) {
     // Inputs as libFuzzer passes them: layout byte (one file or a two-file folder), split
     // byte, data.
     std::string input(2, '\0');
@@ -117,8 +117,8 @@ TEST(DicomFuzz, MutationsOfRealFilesReadOrGiveOneLineErrors) {
     (ok ? read : rejected)++;
   }
   // Both outcomes happen: a test whose mutations all fail early would fuzz nothing.
-  EXPECT_GT(read, 15);
-  EXPECT_GT(rejected, 200);
+  EXPECT_GT(read, 10);
+  EXPECT_GT(rejected, 150);
 }
 
 }  // namespace
