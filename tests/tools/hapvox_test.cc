@@ -169,10 +169,11 @@ TEST(HapvoxCli, BadVolumesAreRejected) {
   const Result nan_run = run(head + dir + "/nan.nrrd");
   EXPECT_EQ(nan_run.exit_code, 2);
   EXPECT_NE(nan_run.err.find("NaN"), std::string::npos) << nan_run.err;
-  expect_input_error(head + "cube",
-                     "cube: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, "
-                     ".nii.gz, .hdr, .dcm or .raw, a folder of DICOM slices, or a generator: block, "
-                     "sphere, four-spheres)");
+  expect_input_error(
+      head + "cube",
+      "cube: unknown volume format (expected .nrrd, .nhdr, .vdb, .mha, .mhd, .nii, "
+      ".nii.gz, .hdr, .dcm or .raw, a folder of DICOM slices, or a generator: block, "
+      "sphere, four-spheres)");
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(out + ".partial"));
 }
