@@ -52,6 +52,10 @@ void info_volume(const InfoFlags& f) {
       std::printf("%s: %s volume, %s densities written by hapvox\n", f.path.c_str(), format->name,
                   raw.sample_type.c_str());
       std::printf("  density          %g .. %g\n", raw.min_intensity, raw.max_intensity);
+    } else if (raw.holds_labels) {
+      std::printf("%s: %s volume, %s label map\n", f.path.c_str(), format->name,
+                  raw.sample_type.c_str());
+      std::printf("  labels           %g .. %g\n", raw.min_intensity, raw.max_intensity);
     } else {
       std::printf("%s: %s volume, %s samples\n", f.path.c_str(), format->name,
                   raw.sample_type.c_str());

@@ -7,6 +7,8 @@
 #include <filesystem>
 
 #include "engine/errors.h"
+#include "engine/io/formats.h"
+#include "engine/labels/label_map.h"
 #include "engine/proxy/tetgen_files.h"
 #include "haptics/mesh_file.h"
 #include "tools/cli.h"
@@ -22,6 +24,7 @@ struct MeshFlags {
   FemCliOptions fem;
   std::string tetgen_out;  // PREFIX: .node/.ele of the mesh and .smesh of its surfaces
   std::string tetgen;      // the TetGen program to compare with ("" for none)
+  std::string labels_out;  // the label map the mesh was built from ("" for none)
 };
 
 void print_report(const MeshFlags& f, const engine::proxy::ProxyMesh& proxy) {
@@ -61,10 +64,26 @@ void run_mesh(const MeshFlags& f) {
       outputs.push_back({f.tetgen_out + ext, "--tetgen-out", ""});
     }
   }
+  if (!f.labels_out.empty()) {
+    const engine::io::VolumeFormat& format = engine::io::written_format(f.labels_out);
+    check_output_path(f.labels_out, "--labels-out");
+    outputs.push_back({f.labels_out, "--labels-out", ""});
+    if (const std::string data = engine::io::companion_output(format, f.labels_out);
+        !data.empty()) {
+      outputs.push_back({data, "--labels-out", ""});
+    }
+  }
   check_outputs_spare_inputs(outputs, inputs);
-  const engine::proxy::ProxyMesh proxy = build_proxy_from_cli(f.volume, f.fem);
+  const ProxyInputs inputs_read = proxy_inputs_from_cli(f.volume, f.fem, std::nullopt);
+  const engine::proxy::ProxyMesh proxy =
+      engine::proxy::build_proxy_mesh(inputs_read.labels, inputs_read.materials, inputs_read.mesh);
   haptics::write_mesh_file(f.output, proxy);
   print_report(f, proxy);
+  if (!f.labels_out.empty()) {
+    engine::io::write_label_volume(engine::labels::label_samples(inputs_read.labels), f.volume,
+                                   f.labels_out);
+    std::printf("wrote %s (the label map the mesh was built from)\n", f.labels_out.c_str());
+  }
   if (!f.tetgen_out.empty()) {
     engine::proxy::write_tetgen_mesh(f.tetgen_out, proxy.mesh);
     const int facets = engine::proxy::write_tetgen_surface(f.tetgen_out, proxy.mesh);
@@ -105,6 +124,10 @@ void add_mesh_command(CLI::App& app) {
   cmd->add_option("-o,--output", flags->output, "Mesh file to write (.h5)")->required();
   add_fem_options(*cmd, flags->fem);
   cmd->get_option("--materials")->required();
+  cmd->add_option("--labels-out", flags->labels_out,
+                  "Also write the label map the mesh was built from (seeds, picks, intensity "
+                  "ranges or --labels) as integers, for Slicer or ITK-SNAP (" +
+                      engine::io::volume_extensions_text(", ", ", ", true) + ")");
   cmd->add_option("--tetgen-out", flags->tetgen_out,
                   "Also write PREFIX.node/.ele (the mesh) and PREFIX.smesh (its surface and "
                   "label boundaries) in TetGen's formats, to compare with TetGen's mesh");

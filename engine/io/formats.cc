@@ -36,8 +36,6 @@ DensityField load_raw_file(const std::string& spec, const IntensityMapping& mapp
   return load_samples(read_raw_file(spec), mapping, spec);
 }
 
-RawVolume read_vdb_samples(const std::string& path) { return dense_intensity(read_vdb(path)); }
-
 DensityField load_vdb(const std::string& path, const IntensityMapping&) { return read_vdb(path); }
 
 std::string unknown_format_message() {
@@ -54,18 +52,21 @@ const std::vector<VolumeFormat>& volume_formats() {
        .read_samples = read_nrrd,
        .load = load_nrrd,
        .write = write_nrrd,
+       .write_labels = write_nrrd_volume,
        .data_file = nrrd_data_file},
       {.name = "OpenVDB",
        .extensions = {".vdb"},
        .holds_samples = false,
        .read_samples = read_vdb_samples,
        .load = load_vdb,
-       .write = write_vdb},
+       .write = write_vdb,
+       .write_labels = write_vdb_labels},
       {.name = "MetaImage",
        .extensions = {".mha", ".mhd"},
        .read_samples = read_metaimage,
        .load = load_metaimage,
        .write = write_metaimage,
+       .write_labels = write_metaimage_volume,
        .data_file = metaimage_data_file,
        .written_data_file = metaimage_written_data_file},
       {.name = "NIfTI",
@@ -73,6 +74,8 @@ const std::vector<VolumeFormat>& volume_formats() {
        .read_samples = read_nifti,
        .load = load_nifti,
        .write = write_nifti,
+       .write_labels = write_nifti_volume,
+       .written_extensions = {".nii", ".nii.gz"},
        .data_file = nifti_data_file},
       {.name = "DICOM",
        .extensions = {".dcm"},
@@ -114,6 +117,26 @@ const VolumeFormat* find_volume_format(const std::string& path) {
   return nullptr;
 }
 
+const VolumeFormat* find_written_format(const std::string& path) {
+  const VolumeFormat* format = find_volume_format(path);
+  if (format == nullptr || format->write == nullptr) return nullptr;
+  if (format->written_extensions.empty()) return format;
+  const std::string name = lower(path);
+  for (const std::string& ext : format->written_extensions) {
+    if (ends_with(name, ext)) return format;
+  }
+  return nullptr;
+}
+
+const VolumeFormat& written_format(const std::string& path) {
+  const VolumeFormat* format = find_written_format(path);
+  if (format == nullptr) {
+    throw InputError(path, "unknown output format (expected " +
+                               volume_extensions_text(", ", " or ", true) + ")");
+  }
+  return *format;
+}
+
 std::string companion_input(const VolumeFormat& format, const std::string& path) {
   return format.data_file == nullptr ? "" : format.data_file(path);
 }
@@ -127,7 +150,10 @@ std::string volume_extensions_text(const std::string& separator, const std::stri
   std::vector<std::string> all;
   for (const VolumeFormat& format : volume_formats()) {
     if (written && format.write == nullptr) continue;
-    all.insert(all.end(), format.extensions.begin(), format.extensions.end());
+    const std::vector<std::string>& listed = written && !format.written_extensions.empty()
+                                                 ? format.written_extensions
+                                                 : format.extensions;
+    all.insert(all.end(), listed.begin(), listed.end());
   }
   std::string text;
   for (std::size_t i = 0; i < all.size(); ++i) {
@@ -154,6 +180,11 @@ RawVolume read_scalar_volume(const std::string& spec) {
   if (is_generator_spec(spec)) return dense_intensity(generate_volume(spec));
   if (const VolumeFormat* format = find_volume_format(spec)) return format->read_samples(spec);
   throw InputError(spec, unknown_format_message());
+}
+
+void write_label_volume(const RawVolume& labels, const std::string& source,
+                        const std::string& path) {
+  written_format(path).write_labels(labels_to_write(labels, source), path);
 }
 
 }  // namespace hapvox::engine::io

@@ -11,6 +11,7 @@
 #include "engine/io/generators.h"
 #include "engine/io/intensity.h"
 #include "engine/io/raw_volume.h"
+#include "engine/io/written_volume.h"
 
 namespace hapvox::engine::io {
 
@@ -31,6 +32,11 @@ struct VolumeFormat {
   DensityField (*load)(const std::string& path, const IntensityMapping& mapping) = nullptr;
   /// Writes a density field (nullptr: hapvox does not write the format).
   void (*write)(const DensityField& field, const std::string& path) = nullptr;
+  /// Writes a label map as integers (engine/io/written_volume.h); set where `write` is.
+  void (*write_labels)(const WrittenVolume& labels, const std::string& path) = nullptr;
+  /// The extensions `write` writes, when fewer than it reads (NIfTI: one file, not .hdr);
+  /// empty: all of `extensions`.
+  std::vector<std::string> written_extensions = {};
   /// The other file this file names and reads (a detached header's data), "" for none.
   std::string (*data_file)(const std::string& path) = nullptr;
   /// The data file `write` writes beside PATH (a .mhd's NAME.zraw), "" for none.
@@ -43,6 +49,12 @@ const std::vector<VolumeFormat>& volume_formats();
 /// The format whose extension `path` ends with (any case), the folder-reading format for an
 /// existing folder, or nullptr.
 const VolumeFormat* find_volume_format(const std::string& path);
+
+/// The format hapvox writes to `path` by its extension (any case), or nullptr when it
+/// writes none there (an unknown extension, a read-only format, NIfTI's .hdr).
+const VolumeFormat* find_written_format(const std::string& path);
+/// The same, or InputError(path, "unknown output format (expected .nrrd, ...)").
+const VolumeFormat& written_format(const std::string& path);
 
 /// format.data_file(path) and format.written_data_file(path); "" when the format has none.
 std::string companion_input(const VolumeFormat& format, const std::string& path);
@@ -62,5 +74,12 @@ DensityField load_volume(const std::string& spec, const IntensityMapping& mappin
 
 /// The dense samples of a file (as stored) or of a generator's densities.
 RawVolume read_scalar_volume(const std::string& spec);
+
+/// Writes a label map (integer samples, e.g. read_scalar_volume of a label file) to `path`
+/// in the format its extension names, as integers (written_volume.h). Throws
+/// InputError(path, "unknown output format (expected ...)") for an extension hapvox does not
+/// write, InputError(source, ...) for a sample that is not a label.
+void write_label_volume(const RawVolume& labels, const std::string& source,
+                        const std::string& path);
 
 }  // namespace hapvox::engine::io

@@ -33,6 +33,20 @@ const std::map<std::string, SampleType>& element_types() {
   return types;
 }
 
+const char* met_type_name(WrittenType type) {
+  switch (type) {
+    case WrittenType::float32:
+      return "MET_FLOAT";
+    case WrittenType::uint8:
+      return "MET_UCHAR";
+    case WrittenType::uint16:
+      return "MET_USHORT";
+    case WrittenType::int32:
+      return "MET_INT";
+  }
+  return "";
+}
+
 struct MetaHeader {
   std::map<std::string, std::string> fields;  // lower-case key -> trimmed value
   std::streampos data_start = 0;              // just after the ElementDataFile line
@@ -248,6 +262,7 @@ RawVolume read_metaimage(const std::string& path) {
   const bool swap = type.size > 1 && big_endian != (std::endian::native == std::endian::big);
   if (const std::string* content = find(header, "hapvoxcontent")) {
     raw.holds_density = lower(*content) == "density";
+    raw.holds_labels = lower(*content) == "labels";
   }
 
   const DataSource source = data_source(header, path);
@@ -281,19 +296,22 @@ std::string metaimage_written_data_file(const std::string& path) {
 }
 
 void write_metaimage(const DensityField& field, const std::string& path) {
-  const std::vector<float> values = dense_floats(field);
+  write_metaimage_volume(density_to_write(field), path);
+}
+
+void write_metaimage_volume(const WrittenVolume& volume, const std::string& path) {
   const std::vector<unsigned char> data =
-      deflate_bytes(values.data(), values.size() * sizeof(float), /*gzip=*/false);
+      deflate_bytes(volume.bytes.data(), volume.bytes.size(), /*gzip=*/false);
   const std::string data_path = metaimage_written_data_file(path);
   const bool detached = !data_path.empty();
   const std::string data_name = fs::path(data_path).filename().string();
 
   std::ostringstream h;
   h.precision(17);
-  const Vec3i& d = field.dims();
-  const Vec3d& s = field.voxel_size_mm();
-  const Vec3d& o = field.origin_mm();
-  const Mat3d& dir = field.direction();
+  const Vec3i& d = volume.dims;
+  const Vec3d& s = volume.spacing_mm;
+  const Vec3d& o = volume.origin_mm;
+  const Mat3d& dir = volume.direction;
   h << "ObjectType = Image\nNDims = 3\nBinaryData = True\n"
     << "BinaryDataByteOrderMSB = " << (std::endian::native == std::endian::big ? "True" : "False")
     << "\nCompressedData = True\nCompressedDataSize = " << data.size() << "\nTransformMatrix =";
@@ -304,7 +322,8 @@ void write_metaimage(const DensityField& field, const std::string& path) {
     << "AnatomicalOrientation = " << orientation_code(dir) << "\n"
     << "ElementSpacing = " << s.x() << " " << s.y() << " " << s.z() << "\n"
     << "DimSize = " << d.x() << " " << d.y() << " " << d.z() << "\n"
-    << "HapvoxContent = density\nElementNumberOfChannels = 1\nElementType = MET_FLOAT\n"
+    << "HapvoxContent = " << (volume.content == WrittenContent::labels ? "labels" : "density")
+    << "\nElementNumberOfChannels = 1\nElementType = " << met_type_name(volume.type) << "\n"
     << "ElementDataFile = " << (detached ? data_name : "LOCAL") << "\n";
   const std::string text = h.str();
   if (detached) {

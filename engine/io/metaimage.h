@@ -11,6 +11,7 @@
 
 #include "engine/density_field.h"
 #include "engine/io/raw_volume.h"
+#include "engine/io/written_volume.h"
 
 namespace hapvox::engine::io {
 
@@ -32,5 +33,9 @@ std::string metaimage_written_data_file(const std::string& path);
 /// the header says the file holds hapvox densities (HapvoxContent = density). Written to
 /// PATH.partial then renamed.
 void write_metaimage(const DensityField& field, const std::string& path);
+
+/// Writes a volume the same way in its sample type (MET_FLOAT, MET_UCHAR, MET_USHORT or
+/// MET_INT), HapvoxContent saying whether it holds densities or labels.
+void write_metaimage_volume(const WrittenVolume& volume, const std::string& path);
 
 }  // namespace hapvox::engine::io

@@ -37,6 +37,20 @@ std::mutex& nifti_mutex() {
   return mutex;
 }
 
+int nifti_datatype(WrittenType type) {
+  switch (type) {
+    case WrittenType::float32:
+      return DT_FLOAT32;
+    case WrittenType::uint8:
+      return DT_UINT8;
+    case WrittenType::uint16:
+      return DT_UINT16;
+    case WrittenType::int32:
+      return DT_INT32;
+  }
+  return DT_UNKNOWN;
+}
+
 const SampleTypeInfo* datatype_info(int datatype) {
   switch (datatype) {
     case DT_INT8:
@@ -159,6 +173,7 @@ RawVolume read_nifti(const std::string& path) {
     throw InputError(path, std::string(which) + " axes are " + problem);
   }
   raw.holds_density = std::strncmp(nim.intent_name, "hapvox_density", sizeof nim.intent_name) == 0;
+  raw.holds_labels = nim.intent_code == NIFTI_INTENT_LABEL;
 
   // The payload, read here with bounded allocation: nifticlib would allocate what the
   // header claims before reading a byte.
@@ -185,22 +200,27 @@ RawVolume read_nifti(const std::string& path) {
 }
 
 void write_nifti(const DensityField& field, const std::string& path) {
+  write_nifti_volume(density_to_write(field), path);
+}
+
+void write_nifti_volume(const WrittenVolume& volume, const std::string& path) {
   if (lower(fs::path(path).extension().string()) == ".hdr") {
     throw InputError(path, "hapvox writes NIfTI as one file, .nii or .nii.gz, not .hdr/.img");
   }
-  const Vec3i& d = field.dims();
+  const bool labels = volume.content == WrittenContent::labels;
+  const Vec3i& d = volume.dims;
   const std::int64_t dims[8] = {3, d.x(), d.y(), d.z(), 1, 1, 1, 1};
   nifti_1_header header{};
   {
     std::lock_guard lock(nifti_mutex());
-    const ImagePtr image(nifti_make_new_nim(dims, DT_FLOAT32, /*data_fill=*/0));
+    const ImagePtr image(nifti_make_new_nim(dims, nifti_datatype(volume.type), /*data_fill=*/0));
     if (image == nullptr) throw InputError(path, "cannot make a NIfTI header");
     nifti_image& nim = *image;
     // LPS -> RAS: negate the x and y rows.
     const Vec3d lps_to_ras(-1.0, -1.0, 1.0);
     const Eigen::Matrix3d axes =
-        lps_to_ras.asDiagonal() * field.direction() * field.voxel_size_mm().asDiagonal();
-    const Vec3d origin = lps_to_ras.cwiseProduct(field.origin_mm());
+        lps_to_ras.asDiagonal() * volume.direction * volume.spacing_mm.asDiagonal();
+    const Vec3d origin = lps_to_ras.cwiseProduct(volume.origin_mm);
     nifti_dmat44 m{};
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) m.m[r][c] = axes(r, c);
@@ -218,17 +238,19 @@ void write_nifti(const DensityField& field, const std::string& path) {
     nim.xyz_units = NIFTI_UNITS_MM;
     nim.nifti_type = NIFTI_FTYPE_NIFTI1_1;
     nim.iname_offset = 352;  // the 348-byte header and 4 bytes of "no extensions"
-    std::strncpy(nim.intent_name, "hapvox_density", sizeof nim.intent_name - 1);
-    std::strncpy(nim.descrip, "hapvox density in [0, 1]", sizeof nim.descrip - 1);
+    // NIFTI_INTENT_LABEL is the standard's "this is a label map" (Slicer, FSL, ITK-SNAP).
+    if (labels) nim.intent_code = NIFTI_INTENT_LABEL;
+    std::strncpy(nim.intent_name, labels ? "hapvox_labels" : "hapvox_density",
+                 sizeof nim.intent_name - 1);
+    std::strncpy(nim.descrip, labels ? "hapvox label map" : "hapvox density in [0, 1]",
+                 sizeof nim.descrip - 1);
     if (nifti_convert_nim2n1hdr(&nim, &header) != 0) {
       throw InputError(path, "cannot make a NIfTI header");
     }
   }
   std::vector<unsigned char> file(352, 0);
   std::memcpy(file.data(), &header, sizeof header);
-  const std::vector<float> values = dense_floats(field);
-  const auto* begin = reinterpret_cast<const unsigned char*>(values.data());
-  file.insert(file.end(), begin, begin + values.size() * sizeof(float));
+  file.insert(file.end(), volume.bytes.begin(), volume.bytes.end());
   if (ends_with_gz(path)) {
     const std::vector<unsigned char> packed =
         deflate_bytes(file.data(), file.size(), /*gzip=*/true);

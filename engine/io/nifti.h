@@ -9,6 +9,7 @@
 
 #include "engine/density_field.h"
 #include "engine/io/raw_volume.h"
+#include "engine/io/written_volume.h"
 
 namespace hapvox::engine::io {
 
@@ -26,5 +27,9 @@ std::string nifti_data_file(const std::string& path);
 /// float samples, sform and qform (scanner anatomical) holding spacing, direction and
 /// origin, intent name "hapvox_density". Written to PATH.partial then renamed.
 void write_nifti(const DensityField& field, const std::string& path);
+
+/// Writes a volume the same way in its sample type; a label map gets intent code
+/// NIFTI_INTENT_LABEL and intent name "hapvox_labels".
+void write_nifti_volume(const WrittenVolume& volume, const std::string& path);
 
 }  // namespace hapvox::engine::io

@@ -278,6 +278,7 @@ RawVolume read_nrrd(const std::string& path) {
   }
   if (const auto it = header.values.find("hapvox_content"); it != header.values.end()) {
     raw.holds_density = trim(it->second) == "density";
+    raw.holds_labels = trim(it->second) == "labels";
   }
 
   const std::string encoding = lower(require_field(header, "encoding", path));
@@ -348,27 +349,32 @@ RawVolume read_nrrd(const std::string& path) {
 }
 
 void write_nrrd(const DensityField& field, const std::string& path) {
-  const Vec3i& dims = field.dims();
+  write_nrrd_volume(density_to_write(field), path);
+}
+
+void write_nrrd_volume(const WrittenVolume& volume, const std::string& path) {
   // gzip wrapper so other tools that insist on gzip, not zlib, can read it.
-  const std::vector<float> values = dense_floats(field);
   const std::vector<unsigned char> compressed =
-      deflate_bytes(values.data(), values.size() * sizeof(float), /*gzip=*/true);
+      deflate_bytes(volume.bytes.data(), volume.bytes.size(), /*gzip=*/true);
 
   // Space directions rather than spacings: NRRD forbids "space origin" without a space,
   // and teem/Slicer/ITK reject spacings alongside one.
   std::ostringstream header;
   header.precision(17);
-  const Vec3d& s = field.voxel_size_mm();
-  const Vec3d& o = field.origin_mm();
+  const bool labels = volume.content == WrittenContent::labels;
+  const Vec3i& dims = volume.dims;
+  const Vec3d& s = volume.spacing_mm;
+  const Vec3d& o = volume.origin_mm;
   header << "NRRD0004\n"
-         << "# written by hapvox: density in [0, 1]\n"
-         << "type: float\n"
+         << (labels ? "# written by hapvox: a label map (0 is background)\n"
+                    : "# written by hapvox: density in [0, 1]\n")
+         << "type: " << nrrd_type_name(volume.type) << "\n"
          << "dimension: 3\n"
          << "space: left-posterior-superior\n"
          << "sizes: " << dims.x() << " " << dims.y() << " " << dims.z() << "\n"
          << "space directions:";
   for (int a = 0; a < 3; ++a) {
-    const Vec3d step = field.direction().col(a) * s[a];
+    const Vec3d step = volume.direction.col(a) * s[a];
     header << " (" << step.x() << "," << step.y() << "," << step.z() << ")";
   }
   header << "\n"
@@ -376,7 +382,7 @@ void write_nrrd(const DensityField& field, const std::string& path) {
          << "endian: " << (std::endian::native == std::endian::big ? "big" : "little") << "\n"
          << "encoding: gzip\n"
          << "space origin: (" << o.x() << "," << o.y() << "," << o.z() << ")\n"
-         << "hapvox_content:=density\n\n";
+         << "hapvox_content:=" << (labels ? "labels" : "density") << "\n\n";
 
   const std::string h = header.str();
   write_file_atomically(path, {{h.data(), h.size()}, {compressed.data(), compressed.size()}});

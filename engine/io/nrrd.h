@@ -6,6 +6,7 @@
 
 #include "engine/density_field.h"
 #include "engine/io/raw_volume.h"
+#include "engine/io/written_volume.h"
 
 namespace hapvox::engine::io {
 
@@ -22,5 +23,9 @@ std::string nrrd_data_file(const std::string& path);
 /// Writes a density field as a NRRD (float, gzip, attached header) with spacings and
 /// origin, covering the index box [0, dims). Written to PATH.partial then renamed.
 void write_nrrd(const DensityField& field, const std::string& path);
+
+/// Writes a volume as a NRRD (its sample type, gzip, attached header, space directions and
+/// origin in LPS); "hapvox_content:=density" or "labels" says what it holds.
+void write_nrrd_volume(const WrittenVolume& volume, const std::string& path);
 
 }  // namespace hapvox::engine::io

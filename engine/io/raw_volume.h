@@ -21,6 +21,7 @@ struct RawVolume {
   Vec3d origin_mm = Vec3d::Zero();
   Mat3d direction = Mat3d::Identity();  // world (LPS) direction of each index axis, as columns
   bool holds_density = false;  // the file says it holds hapvox densities (a writer's metadata)
+  bool holds_labels = false;   // the file says it is a label map (hapvox's or NIfTI's intent)
   std::string sample_type;     // type name as normalised, e.g. "uint8", "int16", "float"
   double min_intensity = 0.0;
   double max_intensity = 0.0;

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <csignal>
@@ -16,8 +17,10 @@
 #include <string>
 #include <system_error>
 
+#include "engine/check.h"
 #include "engine/errors.h"
 #include "engine/io/direction.h"
+#include "engine/io/raw_volume.h"
 
 namespace hapvox::engine::io {
 namespace {
@@ -111,12 +114,67 @@ void check_vdb_in_child(const std::string& path) {
   throw InputError(path, "corrupt or truncated VDB file (reading it crashed OpenVDB)");
 }
 
-}  // namespace
+struct GridGeometry {
+  Vec3d voxel_size_mm;
+  Vec3d origin_mm;
+  Vec3i dims;
+  Mat3d direction;
+};
 
-DensityField read_vdb(const std::string& path) {
-  initialize_openvdb();
-  if (!fs::is_regular_file(path)) throw InputError(path, "cannot open file");
-  check_vdb_in_child(path);
+// Spacing, direction and origin from a grid's (linear) transform; dims from hapvox's
+// metadata, else the active voxels' box from the origin.
+GridGeometry grid_geometry(const openvdb::GridBase& grid, const std::string& path) {
+  GridGeometry g;
+  const openvdb::math::Transform& xform = grid.transform();
+  if (!xform.isLinear()) throw InputError(path, "grid transform is not linear");
+  const openvdb::Vec3d origin = xform.indexToWorld(openvdb::Vec3d(0.0));
+  for (int a = 0; a < 3; ++a) {
+    openvdb::Vec3d unit(0.0);
+    unit[a] = 1.0;
+    const openvdb::Vec3d step = xform.indexToWorld(unit) - origin;
+    g.voxel_size_mm[a] = step.length();
+    g.direction.col(a) = Vec3d(step.x(), step.y(), step.z()) / g.voxel_size_mm[a];
+  }
+  if (!g.voxel_size_mm.allFinite() || !(g.voxel_size_mm.minCoeff() > 0.0)) {
+    throw InputError(path, "grid voxel size must be positive");
+  }
+  if (const std::string problem = direction_problem(g.direction); !problem.empty()) {
+    throw InputError(path, "grid transform's axes are " + problem);
+  }
+  g.origin_mm = Vec3d(origin.x(), origin.y(), origin.z());
+  if (auto meta = grid.getMetadata<openvdb::Vec3IMetadata>("hapvox_dims")) {
+    const openvdb::Vec3i d = meta->value();
+    g.dims = Vec3i(d.x(), d.y(), d.z());
+    if (g.dims.minCoeff() <= 0) throw InputError(path, "hapvox_dims metadata must be positive");
+  } else {
+    const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+    if (box.empty()) throw InputError(path, "grid \"" + grid.getName() + "\" is empty");
+    g.dims = Vec3i(std::max(1, box.max().x() + 1), std::max(1, box.max().y() + 1),
+                   std::max(1, box.max().z() + 1));
+  }
+  if (static_cast<std::int64_t>(g.dims.x()) * g.dims.y() * g.dims.z() > kMaxSamples) {
+    throw InputError(path, "grid \"" + grid.getName() + "\" spans more voxels than hapvox reads");
+  }
+  return g;
+}
+
+// Writes `grid` to PATH.partial, then renames it to PATH.
+void write_grid_atomically(const openvdb::GridBase::ConstPtr& grid, const std::string& path) {
+  const std::string partial = path + ".partial";
+  try {
+    openvdb::io::File file(partial);
+    file.write(openvdb::GridCPtrVec{grid});
+    file.close();
+  } catch (const openvdb::Exception& e) {
+    throw InputError(path, std::string("cannot write file: ") + e.what());
+  }
+  std::error_code ec;
+  fs::rename(partial, path, ec);
+  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
+}
+
+// read_vdb once the child process read the file without harm.
+DensityField read_checked_vdb(const std::string& path) {
   openvdb::io::File file(path);
   openvdb::FloatGrid::Ptr grid;
   try {
@@ -159,37 +217,17 @@ DensityField read_vdb(const std::string& path) {
                                  "] (1 is the normal density)");
     }
   }
-  const openvdb::math::Transform& xform = grid->transform();
-  if (!xform.isLinear()) throw InputError(path, "grid transform is not linear");
-  const openvdb::Vec3d origin = xform.indexToWorld(openvdb::Vec3d(0.0));
-  Vec3d voxel_size;
-  Mat3d direction;
-  for (int a = 0; a < 3; ++a) {
-    openvdb::Vec3d unit(0.0);
-    unit[a] = 1.0;
-    const openvdb::Vec3d step = xform.indexToWorld(unit) - origin;
-    voxel_size[a] = step.length();
-    direction.col(a) = Vec3d(step.x(), step.y(), step.z()) / voxel_size[a];
-  }
-  if (!voxel_size.allFinite() || !(voxel_size.minCoeff() > 0.0)) {
-    throw InputError(path, "grid voxel size must be positive");
-  }
-  if (const std::string problem = direction_problem(direction); !problem.empty()) {
-    throw InputError(path, "grid transform's axes are " + problem);
-  }
+  const GridGeometry g = grid_geometry(*grid, path);
+  return DensityField(grid, g.voxel_size_mm, g.origin_mm, g.dims, g.direction);
+}
 
-  Vec3i dims;
-  if (auto meta = grid->getMetadata<openvdb::Vec3IMetadata>("hapvox_dims")) {
-    const openvdb::Vec3i d = meta->value();
-    dims = Vec3i(d.x(), d.y(), d.z());
-    if (dims.minCoeff() <= 0) throw InputError(path, "hapvox_dims metadata must be positive");
-  } else {
-    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
-    if (box.empty()) throw InputError(path, "grid \"" + grid->getName() + "\" is empty");
-    dims = Vec3i(std::max(1, box.max().x() + 1), std::max(1, box.max().y() + 1),
-                 std::max(1, box.max().z() + 1));
-  }
-  return DensityField(grid, voxel_size, Vec3d(origin.x(), origin.y(), origin.z()), dims, direction);
+}  // namespace
+
+DensityField read_vdb(const std::string& path) {
+  initialize_openvdb();
+  if (!fs::is_regular_file(path)) throw InputError(path, "cannot open file");
+  check_vdb_in_child(path);
+  return read_checked_vdb(path);
 }
 
 void write_vdb(const DensityField& field, const std::string& path) {
@@ -201,18 +239,97 @@ void write_vdb(const DensityField& field, const std::string& path) {
   grid->setTransform(field.grid().transform().copy());  // spacing, direction, origin
   const Vec3i& d = field.dims();
   grid->insertMeta("hapvox_dims", openvdb::Vec3IMetadata(openvdb::Vec3i(d.x(), d.y(), d.z())));
+  write_grid_atomically(grid, path);
+}
 
-  const std::string partial = path + ".partial";
-  try {
-    openvdb::io::File file(partial);
-    file.write(openvdb::GridCPtrVec{grid});
-    file.close();
-  } catch (const openvdb::Exception& e) {
-    throw InputError(path, std::string("cannot write file: ") + e.what());
+void write_vdb_labels(const WrittenVolume& volume, const std::string& path) {
+  HAPVOX_CHECK(volume.content == WrittenContent::labels);
+  initialize_openvdb();
+  auto grid = openvdb::Int32Grid::create(0);
+  grid->setName("labels");
+  // A float field over the same box gives the transform (spacing, direction, origin) that
+  // write_vdb writes for densities.
+  const DensityField box(openvdb::FloatGrid::create(0.0f), volume.spacing_mm, volume.origin_mm,
+                         volume.dims, volume.direction);
+  grid->setTransform(box.grid().transform().copy());
+  const Vec3i& d = volume.dims;
+  grid->insertMeta("hapvox_dims", openvdb::Vec3IMetadata(openvdb::Vec3i(d.x(), d.y(), d.z())));
+  grid->insertMeta("hapvox_content", openvdb::StringMetadata("labels"));
+  const std::vector<std::int32_t> labels = written_labels(volume);
+  auto accessor = grid->getAccessor();
+  std::size_t i = 0;
+  for (int z = 0; z < d.z(); ++z) {
+    for (int y = 0; y < d.y(); ++y) {
+      for (int x = 0; x < d.x(); ++x, ++i) {
+        if (labels[i] != 0) accessor.setValue(openvdb::Coord(x, y, z), labels[i]);
+      }
+    }
   }
-  std::error_code ec;
-  fs::rename(partial, path, ec);
-  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
+  write_grid_atomically(grid, path);
+}
+
+RawVolume read_vdb_samples(const std::string& path) {
+  initialize_openvdb();
+  if (!fs::is_regular_file(path)) throw InputError(path, "cannot open file");
+  check_vdb_in_child(path);
+  // A file with a float grid holds densities; one with only an Int32 grid holds labels.
+  openvdb::Int32Grid::Ptr grid;
+  bool has_float_grid = false;
+  {
+    openvdb::io::File file(path);
+    try {
+      file.open(false);
+      std::optional<std::string> name;
+      const openvdb::GridPtrVecPtr metas = file.readAllGridMetadata();
+      for (const auto& meta : *metas) {
+        has_float_grid = has_float_grid || meta->isType<openvdb::FloatGrid>();
+        if (meta->isType<openvdb::Int32Grid>() && !name) name = meta->getName();
+      }
+      if (name && !has_float_grid) {
+        grid = openvdb::gridPtrCast<openvdb::Int32Grid>(file.readGrid(*name));
+      }
+      file.close();
+    } catch (const openvdb::Exception& e) {
+      throw InputError(path, std::string("not a VDB file (") + e.what() + ")");
+    } catch (const std::exception& e) {
+      throw InputError(path, std::string("corrupt or truncated VDB file (") + e.what() + ")");
+    }
+  }
+  if (has_float_grid) return dense_intensity(read_checked_vdb(path));
+  if (grid == nullptr) {
+    throw InputError(path, "no float or Int32 grid (expected a grid named \"density\")");
+  }
+  if (grid->background() != 0) {
+    throw InputError(path, "grid \"" + grid->getName() + "\" has background " +
+                               std::to_string(grid->background()) + ", expected 0");
+  }
+  const GridGeometry g = grid_geometry(*grid, path);
+  RawVolume raw;
+  raw.dims = g.dims;
+  raw.spacing_mm = g.voxel_size_mm;
+  raw.origin_mm = g.origin_mm;
+  raw.direction = g.direction;
+  raw.sample_type = "int32";
+  raw.holds_labels = true;  // an integer grid holds labels, not densities
+  raw.intensity.assign(static_cast<std::size_t>(g.dims.x()) * static_cast<std::size_t>(g.dims.y()) *
+                           static_cast<std::size_t>(g.dims.z()),
+                       0.0f);
+  for (auto it = grid->cbeginValueOn(); it; ++it) {
+    const openvdb::Coord c = it.getCoord();
+    if (c.x() < 0 || c.y() < 0 || c.z() < 0 || c.x() >= g.dims.x() || c.y() >= g.dims.y() ||
+        c.z() >= g.dims.z()) {
+      continue;  // outside the box hapvox_dims names, as densities are
+    }
+    raw.intensity[static_cast<std::size_t>(c.x()) +
+                  static_cast<std::size_t>(g.dims.x()) *
+                      (static_cast<std::size_t>(c.y()) +
+                       static_cast<std::size_t>(g.dims.y()) * static_cast<std::size_t>(c.z()))] =
+        static_cast<float>(*it);
+  }
+  const auto [lo, hi] = std::minmax_element(raw.intensity.begin(), raw.intensity.end());
+  raw.min_intensity = *lo;
+  raw.max_intensity = *hi;
+  return raw;
 }
 
 }  // namespace hapvox::engine::io

@@ -167,6 +167,23 @@ DensityField label_field(const LabelMap& map) {
   return DensityField(grid, map.spacing_mm(), map.origin_mm(), map.dims());
 }
 
+RawVolume label_samples(const LabelMap& map) {
+  RawVolume raw;
+  raw.dims = map.dims();
+  raw.spacing_mm = map.spacing_mm();
+  raw.origin_mm = map.origin_mm();
+  raw.sample_type = "int32";
+  raw.intensity.resize(map.data().size());
+  std::transform(map.data().begin(), map.data().end(), raw.intensity.begin(),
+                 [](Label l) { return static_cast<float>(l); });
+  if (!raw.intensity.empty()) {
+    const auto [lo, hi] = std::minmax_element(raw.intensity.begin(), raw.intensity.end());
+    raw.min_intensity = *lo;
+    raw.max_intensity = *hi;
+  }
+  return raw;
+}
+
 // ---------------------------------------------------------------------------------------
 // Intensity ranges and region growing.
 

@@ -100,6 +100,10 @@ LabelMap label_volume_to_map(const RawVolume& label_volume, const std::string& l
 /// The map as a volume of float labels, for write_nrrd / write_vdb (label 0 stays inactive).
 DensityField label_field(const LabelMap& map);
 
+/// The map's labels as samples over its grid (axis-aligned), for io::write_label_volume:
+/// a label file that reads back as this map.
+RawVolume label_samples(const LabelMap& map);
+
 /// Voxels with low <= intensity <= high get `label`; the first matching range wins, voxels
 /// no range matches stay 0.
 struct IntensityRange {

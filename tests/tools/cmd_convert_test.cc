@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -119,6 +120,89 @@ TEST(HapvoxConvert, NiftiAndMetaImageShowTheSameWorldBoxToIndependentReaders) {
   std::getline(boxes, metaimage_line);
   expect_same_box(numbers_of(nibabel_line), hapvox_box, "nibabel");
   expect_same_box(numbers_of(metaimage_line), hapvox_box, "the MetaImage header");
+}
+
+// A label map stays a label map: integers in the smallest type, NIfTI's label intent, the
+// same labels and world box to nibabel, and back to NRRD with every label as it was.
+TEST(HapvoxConvert, LabelMapsConvertAsIntegers) {
+  if (std::system("/usr/bin/python3 -c 'import nibabel' 2>/dev/null") != 0) {
+    FAIL() << "python3-nibabel is not installed (scripts/setup.sh installs it)";
+  }
+  const std::string dir = scratch_dir();
+  // uint16 labels 0, 3 and 1000 on the oblique grid of oblique_nrrd.
+  std::string samples;
+  const unsigned short values[4] = {0, 3, 1000, 3};
+  for (int i = 0; i < 24; ++i) {
+    samples.append(reinterpret_cast<const char*>(&values[i % 4]), 2);
+  }
+  const std::string in = dir + "/seg.nrrd";
+  write_text(in,
+             "NRRD0004\ntype: uint16\ndimension: 3\nspace: right-anterior-superior\n"
+             "sizes: 4 3 2\nspace directions: (0.8660254037844387,0.5,0) "
+             "(-1,1.7320508075688772,0) (0,0,2.5)\nspace origin: (-10,5,40)\n"
+             "endian: little\nencoding: raw\n\n" +
+                 samples);
+  const auto nii = run_hapvox("convert --labels " + in + " " + dir + "/seg.nii.gz");
+  ASSERT_EQ(nii.exit_code, 0) << nii.err;
+  EXPECT_NE(nii.out.find("(NIfTI label map, uint16): 4 x 3 x 2 voxels, 18 labelled, 2 labels"),
+            std::string::npos)
+      << nii.out;
+  const std::vector<double> hapvox_box = world_box_of(nii.out);
+  ASSERT_EQ(hapvox_box.size(), 6u) << nii.out;
+
+  const std::string script =
+      "import sys, itertools, numpy as np, nibabel as nib\n"
+      "img = nib.load(sys.argv[1])\n"
+      "print(img.get_data_dtype(), img.header.get_intent()[0])\n"
+      "a = np.asanyarray(img.dataobj)\n"
+      "print(' '.join(str(int(v)) for v in a.flatten(order='F')))\n"
+      "c = np.array([img.affine @ np.array([i, j, k, 1.0]) for i, j, k in\n"
+      "       itertools.product(*[(-0.5, s - 0.5) for s in img.shape])])\n"
+      "c[:, :2] *= -1\n"
+      "print(' '.join('%.6f %.6f' % (c[:, a].min(), c[:, a].max()) for a in range(3)))\n";
+  write_text(dir + "/labels.py", script);
+  ASSERT_EQ(std::system(("/usr/bin/python3 " + dir + "/labels.py " + dir + "/seg.nii.gz > " + dir +
+                         "/labels.txt")
+                            .c_str()),
+            0);
+  std::ifstream seen(dir + "/labels.txt");
+  std::string type_line, values_line, box_line;
+  std::getline(seen, type_line);
+  std::getline(seen, values_line);
+  std::getline(seen, box_line);
+  EXPECT_EQ(type_line, "uint16 label");
+  std::string expected_values;
+  for (int i = 0; i < 24; ++i) {
+    expected_values += (i ? " " : "") + std::to_string(values[i % 4]);
+  }
+  EXPECT_EQ(values_line, expected_values);
+  expect_same_box(numbers_of(box_line), hapvox_box, "nibabel");
+
+  // Back to NRRD: the same uint16 samples, in the same order.
+  const auto back = run_hapvox("convert --labels " + dir + "/seg.nii.gz " + dir + "/back.nrrd");
+  ASSERT_EQ(back.exit_code, 0) << back.err;
+  expect_same_box(world_box_of(back.out), hapvox_box, "hapvox, from the .nii.gz");
+  const auto info = run_hapvox("info " + dir + "/back.nrrd");
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(
+      info.out.find("back.nrrd: NRRD volume, uint16 label map\n  labels           0 .. 1000\n"),
+      std::string::npos)
+      << info.out;
+
+  // A density is no label: one line naming the voxel, nothing written.
+  std::string floats(6 * sizeof(float), '\0');
+  const float half = 0.5f;
+  std::memcpy(floats.data() + 5 * sizeof(float), &half, sizeof half);
+  write_text(dir + "/density.nrrd",
+             "NRRD0004\ntype: float\ndimension: 3\nsizes: 3 2 1\nendian: little\n"
+             "encoding: raw\n\n" +
+                 floats);
+  const auto density = run_hapvox("convert --labels " + dir + "/density.nrrd " + dir + "/d.nrrd");
+  EXPECT_EQ(density.exit_code, 2);
+  EXPECT_EQ(density.err, "hapvox: error: " + dir +
+                             "/density.nrrd: voxel (2, 1, 0) holds 0.5, not a label (an integer "
+                             "in [0, 16777216])\n");
+  EXPECT_FALSE(fs::exists(dir + "/d.nrrd"));
 }
 
 TEST(HapvoxConvert, EveryFormatRoundTripsTheBundledCt) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +12,7 @@
 #include <set>
 
 #include "engine/fem/tet_mesh.h"
+#include "engine/io/formats.h"
 #include "engine/labels/four_spheres.h"
 #include "haptics/mesh_file.h"
 #include "haptics/session.h"
@@ -117,6 +119,53 @@ TEST(MeshCli, SeedsMakeTheLabels) {
   const std::vector<double> labels =
       haptics::read_session_column(dir + "/out.h5", "/mesh/tet_label");
   EXPECT_EQ(std::set<double>(labels.begin(), labels.end()), (std::set<double>{0, 5}));
+}
+
+// --labels-out writes the grown label map as integers: the seeded sphere is label 5, the
+// others background, and meshing that file with --labels gives the seeds' mesh again.
+TEST(MeshCli, TheSeededLabelMapIsWrittenAndMeshesTheSame) {
+  const std::string dir = scratch_dir();
+  const testing::FourSpheres phantom{24, 1.0};
+  const engine::Vec3d c = phantom.centre_mm(1);
+  const std::string materials = write(dir + "/m.toml", materials_text({0, 5}));
+  const std::string seed = std::to_string(c.x()) + "," + std::to_string(c.y()) + "," +
+                           std::to_string(c.z()) + ":5 --seed-tolerance 0.05 ";
+  const auto r = run_hapvox("mesh --materials " + materials + " --seed " + seed + kPhantom +
+                            " -o " + dir + "/seeded.h5 --labels-out " + dir + "/seg.nii.gz");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("wrote " + dir + "/seg.nii.gz (the label map the mesh was built from)"),
+            std::string::npos)
+      << r.out;
+  const engine::RawVolume seg = engine::io::read_scalar_volume(dir + "/seg.nii.gz");
+  EXPECT_EQ(seg.sample_type, "uint8");
+  EXPECT_EQ(seg.dims, engine::Vec3i(24, 24, 24));
+  EXPECT_EQ(std::set<float>(seg.intensity.begin(), seg.intensity.end()), (std::set<float>{0, 5}));
+  const auto at = [&](const engine::Vec3d& p_mm) {
+    const engine::Vec3d i = (p_mm - seg.origin_mm).cwiseQuotient(seg.spacing_mm);
+    const engine::Vec3i v(static_cast<int>(std::lround(i.x())),
+                          static_cast<int>(std::lround(i.y())),
+                          static_cast<int>(std::lround(i.z())));
+    return seg.intensity[static_cast<std::size_t>(v.x() + 24 * (v.y() + 24 * v.z()))];
+  };
+  EXPECT_EQ(at(c), 5.0f);
+  for (int sphere : {2, 3, 4}) EXPECT_EQ(at(phantom.centre_mm(sphere)), 0.0f) << sphere;
+
+  const auto again = run_hapvox("mesh --materials " + materials + " --labels " + dir +
+                                "/seg.nii.gz " + kPhantom + " -o " + dir + "/from_file.h5");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(haptics::read_session_column(dir + "/from_file.h5", "/mesh/tet_label"),
+            haptics::read_session_column(dir + "/seeded.h5", "/mesh/tet_label"));
+  EXPECT_EQ(haptics::read_session_column(dir + "/from_file.h5", "/mesh/rest_mm"),
+            haptics::read_session_column(dir + "/seeded.h5", "/mesh/rest_mm"));
+
+  // An output it cannot write is refused before anything is meshed or written.
+  const auto bad = run_hapvox("mesh --materials " + materials + " --seed " + seed + kPhantom +
+                              " -o " + dir + "/bad.h5 --labels-out " + dir + "/seg.hdr");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.err, "hapvox: error: " + dir +
+                         "/seg.hdr: unknown output format (expected .nrrd, .nhdr, .vdb, .mha, "
+                         ".mhd, .nii or .nii.gz)\n");
+  EXPECT_FALSE(fs::exists(dir + "/bad.h5"));
 }
 
 // Picking (Nakao §3.2): the pixel where `hapvox render` shows the sphere nearest the camera

@@ -148,7 +148,7 @@ TEST(VolumeIoFormats, ExtensionsMatchInAnyCase) {
   EXPECT_EQ(io::volume_extensions_text(", ", " or "),
             ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz, .hdr, .dcm or .raw");
   EXPECT_EQ(io::volume_extensions_text(", ", " or ", /*written=*/true),
-            ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii, .nii.gz or .hdr");
+            ".nrrd, .nhdr, .vdb, .mha, .mhd, .nii or .nii.gz");
 }
 
 }  // namespace
