@@ -163,7 +163,8 @@ std::string crash_problem(const std::string& library, int status) {
 RawVolume read_in_child_process(const std::string& path, RawVolume (*read)(const std::string&),
                                 const std::string& library, std::uint64_t budget_bytes) {
   int fds[2];
-  if (::pipe(fds) != 0) {
+  // Close-on-exec: a program another thread starts must not hold the pipe open.
+  if (::pipe2(fds, O_CLOEXEC) != 0) {
     throw InputError(path, std::string("cannot start a reader process: ") + std::strerror(errno));
   }
   const pid_t child = ::fork();

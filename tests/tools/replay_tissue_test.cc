@@ -120,6 +120,20 @@ TEST(ReplayTissueCli, FlagsThatDoNotFitAreOneLine) {
       {" --materials " + dir + "/none.toml",
        "hapvox: error: " + dir + "/none.toml: cannot open file\n"},
   };
+  // The same slab turned a quarter about z: labels are made on the index grid, so a turned
+  // scan is refused rather than given tissues in the wrong places.
+  std::string turned = testing::read_file(slab);
+  const std::string plain_spacing = "spacings: 1 1 1\n";
+  turned.replace(turned.find(plain_spacing), plain_spacing.size(),
+                 "space: left-posterior-superior\nspace directions: (0,1,0) (-1,0,0) (0,0,1)\n");
+  std::ofstream(dir + "/turned.nrrd", std::ios::binary) << turned;
+  const auto r = run_hapvox("replay " + trace + " --volume " + dir + "/turned.nrrd -q -o " + dir +
+                            "/bad.h5 --materials " + materials);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "hapvox: error: " + dir +
+                       "/turned.nrrd: materials by tissue need a volume whose index axes are "
+                       "world x, y, z (this one's direction cosines are not the identity)\n");
+  EXPECT_FALSE(fs::exists(dir + "/bad.h5"));
   for (const auto& [args, message] : cases) {
     const auto r = run_hapvox(base + args);
     EXPECT_EQ(r.exit_code, 2) << args;
