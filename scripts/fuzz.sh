@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds every libFuzzer target (tests/CMakeLists.txt: volume headers and payloads, DICOM,
-# traces, materials and incision files) with clang 14 under ASan+UBSan, and runs each for a
-# bounded time on a corpus seeded from real files: the bundled volumes, traces and TOML
+# traces, materials and incision files, device bridge packets) with clang 14 under
+# ASan+UBSan, and runs each for a bounded time on a corpus seeded from real files: the bundled volumes, traces and TOML
 # files, pydicom's DICOM test files, mricron's NIfTI templates, and small files of every
 # volume format. A crash, a sanitizer report, an abort from a target's own checks (a read
 # whose sizes do not match, an error that is not one line naming the file), an input that
@@ -15,7 +15,7 @@ seconds=${1:-30}
 bash "$root/scripts/setup.sh" clang-14 libclang-rt-14-dev
 
 build_dir="$root/build-fuzz"
-targets=(volume_fuzz dicom_fuzz trace_fuzz materials_fuzz incision_fuzz)
+targets=(volume_fuzz dicom_fuzz trace_fuzz materials_fuzz incision_fuzz bridge_fuzz)
 mkdir -p "$build_dir"
 if ! bash "$root/scripts/build.sh" --target "${targets[*]}" "$build_dir" \
   -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DHAPVOX_SANITIZE=address \
@@ -29,7 +29,7 @@ fi
 # header comment. Seeds are prefixed accordingly.
 seeds="$build_dir/seeds"
 rm -rf "$seeds"
-mkdir -p "$seeds"/{volume_fuzz,dicom_fuzz,trace_fuzz,materials_fuzz,incision_fuzz}
+mkdir -p "$seeds"/{volume_fuzz,dicom_fuzz,trace_fuzz,materials_fuzz,incision_fuzz,bridge_fuzz}
 prefixed() {  # prefixed PREFIX_PRINTF_FORMAT FILE OUT
   { printf "$1"; cat "$2"; } >"$3"
 }
@@ -93,6 +93,16 @@ for f in "$root"/data/*.toml; do
     *) cp "$f" "$seeds/materials_fuzz/" ;;
   esac
 done
+
+# Device bridge packets (docs/formats.md): 0 a position packet, 1 a force packet.
+python3 - "$seeds/bridge_fuzz" <<'PY'
+import struct, sys
+head = lambda kind, seq: b"HVXB" + struct.pack("<HHIQ", 1, kind, seq, 123456789)
+position = head(1, 7) + struct.pack("<3d4dII", 10.0, -20.0, 30.5, 1.0, 0.0, 0.0, 0.0, 1, 1)
+force = head(2, 8) + struct.pack("<IQQ3dI", 7, 123456789, 1000, 0.5, 0.0, -1.0, 1)
+open(sys.argv[1] + "/position", "wb").write(b"\0" + position)
+open(sys.argv[1] + "/force", "wb").write(b"\1" + force)
+PY
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-"abort_on_error=1"}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-"print_stacktrace=1:halt_on_error=1"}
