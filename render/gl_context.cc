@@ -4,6 +4,7 @@
 #include <EGL/eglext.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include "render/gl.h"
@@ -26,9 +27,49 @@ bool has_extension(const char* list, const char* name) {
   return false;
 }
 
-}  // namespace
+// A GPU's EGL device (EGL_EXT_platform_device: NVIDIA's driver, Mesa on a DRM device), or
+// EGL_NO_DISPLAY when there is none. Mesa's software device is skipped: without a GPU the
+// surfaceless platform (llvmpipe) is used, as it always was. HAPVOX_EGL=surfaceless skips
+// GPUs too.
+EGLDisplay open_gpu_display() {
+  const char* choice = std::getenv("HAPVOX_EGL");
+  if (choice != nullptr && std::strcmp(choice, "surfaceless") == 0) return EGL_NO_DISPLAY;
+  const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+  if (!has_extension(client, "EGL_EXT_platform_device") ||
+      !has_extension(client, "EGL_EXT_device_enumeration")) {
+    return EGL_NO_DISPLAY;
+  }
+  auto query_devices =
+      reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+  auto device_string = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(
+      eglGetProcAddress("eglQueryDeviceStringEXT"));
+  auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+      eglGetProcAddress("eglGetPlatformDisplayEXT"));
+  if (query_devices == nullptr || device_string == nullptr || get_platform_display == nullptr) {
+    return EGL_NO_DISPLAY;
+  }
+  EGLDeviceEXT devices[16];
+  EGLint count = 0;
+  if (query_devices(16, devices, &count) == EGL_FALSE) return EGL_NO_DISPLAY;
+  for (EGLint i = 0; i < count; ++i) {
+    if (has_extension(device_string(devices[i], EGL_EXTENSIONS), "EGL_MESA_device_software")) {
+      continue;
+    }
+    EGLDisplay display = get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
+    EGLint major = 0, minor = 0;
+    if (display == EGL_NO_DISPLAY || eglInitialize(display, &major, &minor) == EGL_FALSE) {
+      continue;
+    }
+    if (has_extension(eglQueryString(display, EGL_EXTENSIONS), "EGL_KHR_surfaceless_context")) {
+      return display;
+    }
+    eglTerminate(display);
+  }
+  return EGL_NO_DISPLAY;
+}
 
-GlContext::GlContext() {
+// Mesa's surfaceless platform: no X server, no DRM device (headless CI machines).
+EGLDisplay open_surfaceless_display() {
   // Client extensions are queried on EGL_NO_DISPLAY; without EGL_MESA_platform_surfaceless
   // we would need an X server or a DRM device, which headless machines do not have.
   const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
@@ -48,11 +89,19 @@ GlContext::GlContext() {
   if (display == EGL_NO_DISPLAY || eglInitialize(display, &major, &minor) == EGL_FALSE) {
     throw RenderError(egl_error_text("cannot open the surfaceless display"));
   }
-  display_ = display;
   if (!has_extension(eglQueryString(display, EGL_EXTENSIONS), "EGL_KHR_surfaceless_context")) {
     eglTerminate(display);
     throw RenderError("EGL: the display cannot make a context current without a surface");
   }
+  return display;
+}
+
+}  // namespace
+
+GlContext::GlContext() {
+  EGLDisplay display = open_gpu_display();
+  if (display == EGL_NO_DISPLAY) display = open_surfaceless_display();
+  display_ = display;
   if (eglBindAPI(EGL_OPENGL_API) == EGL_FALSE) {
     eglTerminate(display);
     throw RenderError(egl_error_text("OpenGL is not supported by this EGL"));
