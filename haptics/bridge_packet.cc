@@ -108,6 +108,7 @@ std::size_t encode_position(const PositionPacket& p, std::uint8_t* out) {
   for (double q : p.orientation_wxyz) w.f64(q);
   w.u32(p.buttons);
   w.u32(p.flags);
+  w.u32(p.round_trip_ns);
   return w.size();
 }
 
@@ -134,6 +135,7 @@ PacketError parse_position(const std::uint8_t* data, std::size_t size, PositionP
   for (double& q : p.orientation_wxyz) q = r.f64();
   p.buttons = r.u32();
   p.flags = r.u32();
+  p.round_trip_ns = r.u32();
   if (!p.position_mm.allFinite()) return PacketError::not_finite;
   if ((p.flags & kPositionHasOrientation) != 0) {
     double norm2 = 0.0;

@@ -13,7 +13,8 @@
 //                       u64 sent_ns (the sender's monotonic clock)
 //   position (kind 1)   header, f64[3] position_mm (device frame), f64[4] orientation
 //                       (w, x, y, z; valid when flags bit 0), u32 buttons (bit 0: grab,
-//                       bit 1: dead-man, released = force off), u32 flags       84 bytes
+//                       bit 1: dead-man, released = force off), u32 flags, u32
+//                       round_trip_ns (the sender's last measured round trip)   88 bytes
 //   force (kind 2)      header, u32 echo_sequence, u64 echo_sent_ns, u64 tick,
 //                       f64[3] force_n, u32 status (ForceStatus bits)          68 bytes
 
@@ -29,7 +30,7 @@ using Vec3d = Eigen::Vector3d;
 inline constexpr std::array<std::uint8_t, 4> kBridgeMagic = {'H', 'V', 'X', 'B'};
 inline constexpr std::uint16_t kBridgeVersion = 1;
 inline constexpr std::size_t kBridgeHeaderBytes = 20;
-inline constexpr std::size_t kPositionPacketBytes = 84;
+inline constexpr std::size_t kPositionPacketBytes = 88;
 inline constexpr std::size_t kForcePacketBytes = 68;
 /// A receive buffer this large holds any packet of any version; a datagram longer than a
 /// packet of its kind is refused as oversized.
@@ -42,6 +43,7 @@ inline constexpr std::uint32_t kButtonGrab = 1u << 0;
 inline constexpr std::uint32_t kButtonDeadMan = 1u << 1;
 /// Flag bits of a position packet.
 inline constexpr std::uint32_t kPositionHasOrientation = 1u << 0;
+inline constexpr std::uint32_t kPositionEndOfSession = 1u << 1;  // the sender's last packet
 /// Status bits of a force packet.
 inline constexpr std::uint32_t kForceRamping = 1u << 0;   // ramp factor below 1
 inline constexpr std::uint32_t kForceClamped = 1u << 1;   // clamped to the device limit
@@ -62,6 +64,10 @@ struct PositionPacket {
   std::array<double, 4> orientation_wxyz = {1.0, 0.0, 0.0, 0.0};
   std::uint32_t buttons = 0;
   std::uint32_t flags = 0;
+  /// The round trip the sender measured for the newest force packet it got (its clock at
+  /// arrival minus the echoed sent_ns), saturated at 2^32 - 1; 0 before the first. hapvox
+  /// records them, so the session holds the latency its device saw.
+  std::uint32_t round_trip_ns = 0;
 };
 
 struct ForcePacket {

@@ -5,6 +5,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -22,16 +23,6 @@ namespace hapvox::haptics {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// Sleeping overshoots by up to the timer slack; the last stretch is spun.
-constexpr auto kSpinWindow = std::chrono::microseconds(150);
-
-void wait_until(Clock::time_point deadline) {
-  const auto now = Clock::now();
-  if (deadline - now > kSpinWindow) std::this_thread::sleep_until(deadline - kSpinWindow);
-  while (Clock::now() < deadline) {
-  }
-}
 
 std::int64_t ns_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count();
@@ -57,22 +48,58 @@ double machine_steal_s() {
   return ticks_per_s > 0 ? static_cast<double>(steal) / static_cast<double>(ticks_per_s) : 0.0;
 }
 
+// One tick's row on its way from the force thread to the session writer.
+struct RingSlot {
+  TickRecord row;
+  std::uint8_t nonfinite = 0;
+};
+
+// A single-producer, single-consumer ring of rows: the force thread pushes without waiting
+// (a full ring drops the row and counts it; at 8 s of rows, only a writer stalled that long
+// by the disk gets there), the writer thread pops.
+class RowRing {
+ public:
+  static constexpr std::size_t kCapacity = 8192;  // a power of two
+
+  void push(const RingSlot& slot) {
+    const std::size_t head = head_.load(std::memory_order_relaxed);
+    if (head - tail_.load(std::memory_order_acquire) == kCapacity) {
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    slots_[head & (kCapacity - 1)] = slot;
+    head_.store(head + 1, std::memory_order_release);
+  }
+  bool pop(RingSlot& slot) {
+    const std::size_t tail = tail_.load(std::memory_order_relaxed);
+    if (tail == head_.load(std::memory_order_acquire)) return false;
+    slot = slots_[tail & (kCapacity - 1)];
+    tail_.store(tail + 1, std::memory_order_release);
+    return true;
+  }
+  std::uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
+
+ private:
+  std::array<RingSlot, kCapacity> slots_;
+  alignas(64) std::atomic<std::size_t> head_{0};
+  alignas(64) std::atomic<std::size_t> tail_{0};
+  std::atomic<std::uint64_t> dropped_{0};
+};
+
 }  // namespace
 
-ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background,
-                              const TraceDevice& device, const DeviceLimits& limits,
-                              SessionWriter* session, const ProgressFn& progress,
-                              SculptSummary* sculpt_summary, TimingSummary* timing,
-                              const RealtimeOptions& options) {
+ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, Device& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress, SculptSummary* sculpt_summary,
+                              TimingSummary* timing, const RealtimeOptions& options) {
   SummaryBuilder builder(device);
-  const std::size_t ticks = device.tick_count();
+  const std::size_t ticks = device.tick_count();  // kUnbounded: until the device finishes
   if (ticks == 0) return builder.finish(0, 0);
   const auto dt = std::chrono::nanoseconds(std::llround(1e9 / device.rate_hz()));
 
-  // Everything the force thread touches is made here, before it starts.
-  std::vector<TickRecord> rows(ticks);
-  std::vector<std::uint8_t> nonfinite(ticks, 0);
-  std::atomic<std::size_t> rows_done{0};
+  // Everything the force thread touches is made here, before it starts. Rows go to the
+  // session through a fixed ring, so a session of any length takes the same memory.
+  auto rows = std::make_unique<RowRing>();
   std::atomic<bool> force_done{false};
   if (background != nullptr) background->begin();
   ForceRamp ramp(limits, device.rate_hz());
@@ -104,13 +131,16 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background,
     const long switches_start = involuntary_switches();
     if (hooks.loop_started) hooks.loop_started();
     for (std::size_t tick = 0; tick < ticks; ++tick) {
-      const auto deadline = start + tick * dt;
-      wait_until(deadline);
+      if (options.stop != nullptr && options.stop->load(std::memory_order_relaxed)) break;
+      const auto deadline =
+          device.wait_for_tick(tick, start + static_cast<std::int64_t>(tick) * dt);
+      if (device.finished()) break;
       const auto begin = Clock::now();
       if (hooks.before_tick) hooks.before_tick(tick);
-      TickRecord& row = rows[tick];
+      RingSlot slot;
+      TickRecord& row = slot.row;
       force.acquire_published();
-      nonfinite[tick] = run_force_stage(force, device, tick, limits, ramp, row) ? 1 : 0;
+      slot.nonfinite = run_force_stage(force, device, tick, limits, ramp, row) ? 1 : 0;
       const auto end = Clock::now();
       if (background != nullptr) background->fill_realtime_row(row);
       row.scheduled_ns = ns_between(start, deadline);
@@ -128,7 +158,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background,
         feed->tool.publish(RenderToolState{row.tool_position_mm, row.displacement_mm,
                                            row.contact != 0, static_cast<std::int64_t>(tick)});
       }
-      rows_done.store(tick + 1, std::memory_order_release);
+      rows->push(slot);
     }
     if (hooks.loop_finished) hooks.loop_finished();
     force_cpu_s = thread_cpu_s() - cpu_start;
@@ -188,41 +218,48 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background,
     });
   }
 
-  // This thread: the session writer.
-  std::size_t written = 0;
-  const std::size_t progress_every = std::max<std::size_t>(1, ticks / 100);
+  // This thread: the session writer. It drains the ring ~10 times a second into the
+  // session and the summary; the force thread never waits for it.
+  LatencyHistogram lateness;
+  std::size_t written = 0, missed = 0, stalled = 0;
+  std::int64_t first_scheduled_ns = 0, last_end_ns = 0;
+  const std::size_t progress_every =
+      ticks == Device::kUnbounded ? 1000 : std::max<std::size_t>(1, ticks / 100);
   std::size_t next_progress = progress_every;
-  while (written < ticks) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    const std::size_t done = rows_done.load(std::memory_order_acquire);
-    for (; written < done; ++written) {
-      if (session != nullptr) session->append(rows[written]);
+  auto drain = [&] {
+    RingSlot slot;
+    while (rows->pop(slot)) {
+      const TickRecord& row = slot.row;
+      builder.add(row, slot.nonfinite != 0);
+      if (session != nullptr) session->append(row);
+      lateness.add(row.start_ns - row.scheduled_ns);
+      if (row.start_ns + row.compute_ns > row.scheduled_ns + period_ns) ++missed;
+      if (row.start_ns - row.scheduled_ns > period_ns) ++stalled;
+      if (written == 0) first_scheduled_ns = row.scheduled_ns;  // a live device's first
+      last_end_ns = row.start_ns + row.compute_ns;
+      ++written;
     }
     if (progress && written >= next_progress) {
       progress(written, ticks);
       next_progress = (written / progress_every + 1) * progress_every;
     }
+  };
+  while (!force_done.load(std::memory_order_acquire)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    drain();
   }
   force_thread.join();
+  drain();
   if (background_thread.joinable()) background_thread.join();
   const auto wall_end = Clock::now();
   release_process(scheduler);
   describe_thread_setup(options.scheduler, thread_codes, scheduler);
 
-  std::vector<double> lateness_us(ticks);
-  std::size_t missed = 0, stalled = 0;
-  for (std::size_t i = 0; i < ticks; ++i) {
-    const TickRecord& row = rows[i];
-    builder.add(row, nonfinite[i] != 0);
-    lateness_us[i] = 1e-3 * static_cast<double>(row.start_ns - row.scheduled_ns);
-    if (row.start_ns + row.compute_ns > row.scheduled_ns + period_ns) ++missed;
-    if (row.start_ns - row.scheduled_ns > period_ns) ++stalled;
-  }
   const ForceStageCounters counters = force.counters();
   const ReplaySummary summary = builder.finish(counters.nonfinite_forces, counters.contact_onsets);
   if (timing != nullptr) {
     timing->rate_hz = device.rate_hz();
-    timing->lateness = duration_stats(lateness_us);
+    timing->lateness = duration_stats(lateness);
     timing->missed_deadlines = missed;
     timing->watchdog_trips = watchdog_trips;
     timing->watchdog_ramped_ticks = ramp.reduced_ticks();
@@ -244,9 +281,12 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background,
     timing->relax_slice_ns = std::move(background_timing.slice_ns);
     timing->relax_slice_start_ns = std::move(background_timing.slice_start_ns);
     timing->wall_time_s = 1e-9 * static_cast<double>(ns_between(start, wall_end));
+    // From the first tick's schedule (a trace's: the start; a live device's: its first
+    // position) to the end of the last.
+    const std::int64_t span_ns = last_end_ns - first_scheduled_ns;
     timing->achieved_rate_hz =
-        static_cast<double>(ticks) /
-        (1e-9 * static_cast<double>(rows.back().start_ns + rows.back().compute_ns));
+        span_ns > 0 ? static_cast<double>(written) / (1e-9 * static_cast<double>(span_ns)) : 0.0;
+    timing->rows_dropped = rows->dropped();
     timing->relax_busy_fraction =
         timing->wall_time_s > 0.0 ? 1e-9 * busy_ns / timing->wall_time_s : 0.0;
   }

@@ -12,8 +12,10 @@
 //   background       BackgroundStage::run_realtime: bounded slices of work, sleeping while
 //                    there is none (the voxel model: relaxation slices publishing into a
 //                    DoubleBufferedField, waking on the force thread's next change).
-//   calling thread   appends finished rows to the session (~10 times a second) and
-//                    reports progress.
+//   calling thread   drains the force thread's rows from a fixed ring (8 s of rows) into
+//                    the session and the summary, ~10 times a second, and reports
+//                    progress: memory stays flat however long the session runs, and the
+//                    session file is flushed every second (haptics/session.h).
 
 #include <atomic>
 #include <cstdint>
@@ -40,6 +42,7 @@ struct TimingSummary {
   double force_cpu_s = 0;               // force thread CPU time over the loop
   long force_involuntary_switches = 0;  // times the kernel preempted the force thread
   std::size_t stalled_ticks = 0;        // started more than a full period late
+  std::uint64_t rows_dropped = 0;       // rows the session writer fell 8 s behind on (lost)
   double machine_steal_s = 0;           // hypervisor steal time, all CPUs, over the run
   SchedulerReport scheduler;
   // Background thread (the voxel model: one slice = apply queued deletions, relax a
@@ -75,6 +78,9 @@ struct RealtimeOptions {
   /// ramped down to zero and back in at the ramp-in's slope (ForceRamp), never stepped.
   double watchdog_periods = 1.0;
   ForceThreadHooks hooks;
+  /// Set by the application (a signal handler, a window's close) to end the loop after the
+  /// tick under way; the session keeps every tick run. Null: runs to the device's end.
+  const std::atomic<bool>* stop = nullptr;
   /// With a loop, a third thread renders: it is fed the force thread's tool pose and the
   /// relaxation thread's changed voxels (haptics/render_feed.h), never blocking either.
   RenderLoop render_loop;
@@ -83,10 +89,9 @@ struct RealtimeOptions {
 /// Replays `device` in realtime through a model's stages. With a `background` stage, it
 /// runs on a second thread (BackgroundStage::run_realtime), fed by the force stage's
 /// hand-offs and publishing back to it; `sculpt_summary` (if not null) gets what it did.
-ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background,
-                              const TraceDevice& device, const DeviceLimits& limits,
-                              SessionWriter* session, const ProgressFn& progress,
-                              SculptSummary* sculpt_summary, TimingSummary* timing,
-                              const RealtimeOptions& options = {});
+ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, Device& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress, SculptSummary* sculpt_summary,
+                              TimingSummary* timing, const RealtimeOptions& options = {});
 
 }  // namespace hapvox::haptics

@@ -43,12 +43,14 @@ void ForceRamp::trip() {
   recovering_ = true;
 }
 
-double ForceRamp::next() {
+double ForceRamp::next(bool hold_down) {
   if (steps_ == 0.0) {
     level_ = 0;
-    return 1.0;
+    return hold_down ? 0.0 : 1.0;
   }
-  if (falling_) {
+  if (hold_down) {
+    level_ = std::max<std::int64_t>(0, level_ - 1);
+  } else if (falling_) {
     level_ = std::max<std::int64_t>(0, level_ - 1);
     if (level_ == 0) falling_ = false;  // at zero: rise from the next tick
   } else {
@@ -65,41 +67,49 @@ double ForceRamp::next() {
   return f;
 }
 
-bool run_force_stage(ForceStage& stage, const TraceDevice& device, std::size_t tick,
+bool run_force_stage(ForceStage& stage, Device& device, std::size_t tick,
                      const DeviceLimits& limits, ForceRamp& ramp, TickRecord& row) {
-  row.time_s = device.time_s(tick);
-  row.device_position_mm = device.device_position_mm(tick);
-  row.tool_position_mm = device.tool_position_mm(tick);
-  row.holding = device.holding(tick) ? 1 : 0;
+  DeviceReading reading;
+  device.read(tick, reading);
+  const DeviceTransform& transform = device.transform();
+  row.time_s = reading.time_s;
+  row.device_position_mm = reading.position_mm;
+  row.tool_position_mm = transform.apply(reading.position_mm);
+  row.holding = reading.holding ? 1 : 0;
+  row.device_sequence = reading.sequence;
   const Vec3d model_force_n = stage.step(row.tool_position_mm, row);
-  row.force_scale = ramp.next();
+  row.force_scale = ramp.next(reading.silent || reading.released);
   bool clamped = false;
   bool nonfinite = false;
   row.force_n = safe_force(model_force_n, row.force_scale, limits, &clamped, &nonfinite);
   row.clamped = clamped ? 1 : 0;
+  // Forces go back to the device in its own frame (the scale moves points, not newtons).
+  device.send(tick, transform.rotation.transpose() * row.force_n, row, nonfinite);
   return nonfinite;
 }
 
-ReplaySummary replay_lockstep(ForceStage& force, BackgroundStage* background,
-                              const TraceDevice& device, const DeviceLimits& limits,
-                              SessionWriter* session, const ProgressFn& progress,
-                              SculptSummary* sculpt_summary, const LockstepRender* render) {
+ReplaySummary replay_lockstep(ForceStage& force, BackgroundStage* background, Device& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress, SculptSummary* sculpt_summary,
+                              const LockstepRender* render) {
   using Clock = std::chrono::steady_clock;
   SummaryBuilder builder(device);
   const std::size_t ticks = device.tick_count();
+  HAPVOX_CHECK(ticks != Device::kUnbounded);  // lockstep replays a known trace
   if (ticks == 0) return builder.finish(0, 0);
-  const double t0 = device.time_s(0);
+  double t0 = 0.0;
   ForceRamp ramp(limits, device.rate_hz());
   if (background != nullptr) background->begin();
   const std::size_t progress_every = std::max<std::size_t>(1, ticks / 100);
 
   for (std::size_t tick = 0; tick < ticks; ++tick) {
     TickRecord row;
-    row.scheduled_ns = static_cast<std::int64_t>(std::llround(1e9 * (device.time_s(tick) - t0)));
-    row.start_ns = row.scheduled_ns;
     const auto start = Clock::now();
     const bool nonfinite = run_force_stage(force, device, tick, limits, ramp, row);
     const auto end = Clock::now();
+    if (tick == 0) t0 = row.time_s;
+    row.scheduled_ns = static_cast<std::int64_t>(std::llround(1e9 * (row.time_s - t0)));
+    row.start_ns = row.scheduled_ns;
     if (background != nullptr) background->run_lockstep_tick(tick, row, render);
     row.compute_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(end - start).count();
     builder.add(row, nonfinite);

@@ -9,10 +9,12 @@
 #include <functional>
 #include <vector>
 
+#include "haptics/device.h"
 #include "haptics/model_stages.h"
 #include "haptics/replay_summary.h"
 #include "haptics/session.h"
 #include "haptics/trace.h"
+#include "haptics/trace_device.h"
 
 namespace hapvox::haptics {
 
@@ -41,8 +43,10 @@ class ForceRamp {
  public:
   ForceRamp(const DeviceLimits& limits, double rate_hz);
 
-  /// The factor for the next tick; call once per tick, in order.
-  double next();
+  /// The factor for the next tick; call once per tick, in order. `hold_down` (a silent
+  /// device, a released dead-man) makes it fall to 0 and stay there while it lasts; it rises
+  /// again, at the same slope, once it ends. With no ramp the factor is then 0 at once.
+  double next(bool hold_down = false);
   /// A watchdog trip: the factor falls to 0 from the next tick on, then rises again.
   void trip();
 
@@ -65,42 +69,20 @@ class ForceRamp {
   std::uint64_t reduced_ticks_ = 0;
 };
 
-/// A simulated haptic device that replays a resampled trace through a device-to-volume
-/// transform: the tool position at tick k.
-class TraceDevice {
- public:
-  TraceDevice(ResampledTrace trace, const DeviceTransform& transform)
-      : trace_(std::move(trace)), transform_(transform) {}
-
-  std::size_t tick_count() const { return trace_.time_s.size(); }
-  double rate_hz() const { return trace_.rate_hz; }
-  double time_s(std::size_t tick) const { return trace_.time_s[tick]; }
-  const Vec3d& device_position_mm(std::size_t tick) const { return trace_.position_mm[tick]; }
-  Vec3d tool_position_mm(std::size_t tick) const {
-    return transform_.apply(trace_.position_mm[tick]);
-  }
-  bool holding(std::size_t tick) const { return trace_.holding[tick] != 0; }
-  const ResampledTrace& trace() const { return trace_; }
-  const DeviceTransform& transform() const { return transform_; }
-
- private:
-  ResampledTrace trace_;
-  DeviceTransform transform_;
-};
-
 /// The force stage of tick `tick`, the same code in lockstep and realtime and for every
-/// model: reads the device, steps the model's force stage, makes the force safe (clamped,
-/// then scaled by ramp.next()) and fills the row's device and force fields (the stage
-/// fills the model's). Call it for every tick in order, with one `ramp` per run. Returns
-/// true when the model's force was non-finite (sent as zero). Does not allocate, lock,
-/// throw or do I/O.
-bool run_force_stage(ForceStage& stage, const TraceDevice& device, std::size_t tick,
+/// model and device: reads the device, steps the model's force stage, makes the force safe
+/// (clamped, then scaled by ramp.next()), fills the row's device and force fields (the
+/// stage fills the model's) and sends the force to the device (in its frame). Call it for
+/// every tick in order, with one `ramp` per run. Returns true when the model's force was
+/// non-finite (sent as zero). Does not allocate, lock or throw; no I/O but the device's own.
+bool run_force_stage(ForceStage& stage, Device& device, std::size_t tick,
                      const DeviceLimits& limits, ForceRamp& ramp, TickRecord& row);
 
 /// Called now and then with (ticks done, ticks total).
 using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 
-/// Runs every tick of `device` through `force` on the simulated clock, appending a row per
+/// Runs every tick of `device` (a device with a known tick count) through `force` on the
+/// simulated clock, appending a row per
 /// tick to `session` (if not null). Does not close the session.
 ///
 /// With a `background` stage, each tick runs, in this fixed order: the force stage (which
@@ -109,9 +91,9 @@ using ProgressFn = std::function<void(std::size_t, std::size_t)>;
 /// stage and to `render`), and every `render->every_ticks` ticks a frame. After the last
 /// tick the background stage finishes its queued work and `sculpt_summary` (if not null)
 /// gets what it did. Results are bit-reproducible.
-ReplaySummary replay_lockstep(ForceStage& force, BackgroundStage* background,
-                              const TraceDevice& device, const DeviceLimits& limits,
-                              SessionWriter* session, const ProgressFn& progress = {},
+ReplaySummary replay_lockstep(ForceStage& force, BackgroundStage* background, Device& device,
+                              const DeviceLimits& limits, SessionWriter* session,
+                              const ProgressFn& progress = {},
                               SculptSummary* sculpt_summary = nullptr,
                               const LockstepRender* render = nullptr);
 

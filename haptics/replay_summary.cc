@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "engine/check.h"
-#include "haptics/replay.h"
+#include "haptics/device.h"
 
 namespace hapvox::haptics {
 
@@ -28,18 +28,32 @@ DurationStats duration_stats(const std::vector<double>& values_us) {
   return stats;
 }
 
-SummaryBuilder::SummaryBuilder(const TraceDevice& device) : rate_hz_(device.rate_hz()) {
-  summary_.ticks = device.tick_count();
-  summary_.trace_gaps = device.trace().gap_count;
-  summary_.trace_held_s = device.trace().held_time_s;
-  if (summary_.ticks > 0) {
-    summary_.duration_s = device.time_s(summary_.ticks - 1) - device.time_s(0);
-  }
-  compute_us_.reserve(summary_.ticks);
+DurationStats duration_stats(const LatencyHistogram& histogram) {
+  DurationStats stats;
+  stats.count = histogram.count();
+  if (stats.count == 0) return stats;
+  stats.p50_us = 1e-3 * static_cast<double>(histogram.percentile_ns(50.0));
+  stats.p99_us = 1e-3 * static_cast<double>(histogram.percentile_ns(99.0));
+  stats.p999_us = 1e-3 * static_cast<double>(histogram.percentile_ns(99.9));
+  stats.max_us = 1e-3 * static_cast<double>(histogram.max_ns());
+  return stats;
+}
+
+SummaryBuilder::SummaryBuilder(const Device& device)
+    : rate_hz_(device.rate_hz()), expected_ticks_(device.tick_count()) {
+  summary_.trace_gaps = device.gap_count();
+  summary_.trace_held_s = device.held_time_s();
 }
 
 void SummaryBuilder::add(const TickRecord& row, bool nonfinite) {
-  compute_us_.push_back(1e-3 * static_cast<double>(row.compute_ns));
+  if (summary_.ticks == 0) {
+    first_time_s_ = row.time_s;
+    summary_.first_tool_position_mm = row.tool_position_mm;
+  }
+  summary_.last_tool_position_mm = row.tool_position_mm;
+  ++summary_.ticks;
+  summary_.duration_s = row.time_s - first_time_s_;
+  compute_.add(row.compute_ns);
   summary_.contact_ticks += row.contact;
   summary_.clamped_ticks += row.clamped;
   summary_.nonfinite_forces += nonfinite ? 1 : 0;
@@ -51,17 +65,16 @@ void SummaryBuilder::add(const TickRecord& row, bool nonfinite) {
 
 ReplaySummary SummaryBuilder::finish(std::uint64_t stage_nonfinite_forces,
                                      std::uint64_t contact_onsets) {
-  HAPVOX_CHECK_EQ(compute_us_.size(), summary_.ticks);
+  if (expected_ticks_ != Device::kUnbounded) HAPVOX_CHECK_EQ(summary_.ticks, expected_ticks_);
   ReplaySummary summary = summary_;
   // Ticks times the period, as the lockstep loop always computed it (bit for bit).
   summary.contact_time_s = static_cast<double>(summary.contact_ticks) * (1.0 / rate_hz_);
   summary.contact_onsets = contact_onsets;
   summary.nonfinite_forces += stage_nonfinite_forces;
-  summary.compute_p50_us = percentile(compute_us_, 50.0);
-  summary.compute_p99_us = percentile(compute_us_, 99.0);
-  if (!compute_us_.empty()) {
-    summary.compute_max_us = *std::max_element(compute_us_.begin(), compute_us_.end());
-  }
+  const DurationStats compute = duration_stats(compute_);
+  summary.compute_p50_us = compute.p50_us;
+  summary.compute_p99_us = compute.p99_us;
+  summary.compute_max_us = compute.max_us;
   return summary;
 }
 

@@ -7,24 +7,28 @@
 #include <cstdint>
 #include <vector>
 
+#include "haptics/latency_histogram.h"
 #include "haptics/session.h"
 
 namespace hapvox::haptics {
 
-class TraceDevice;
+class Device;
 
 struct ReplaySummary {
   std::size_t ticks = 0;
   std::size_t contact_ticks = 0;
   double contact_time_s = 0.0;
   double duration_s = 0.0;
+  Vec3d first_tool_position_mm = Vec3d::Zero();  // volume space
+  Vec3d last_tool_position_mm = Vec3d::Zero();
   double peak_force_n = 0.0;
   std::size_t clamped_ticks = 0;
   std::size_t nonfinite_forces = 0;
   std::uint64_t contact_onsets = 0;
   int trace_gaps = 0;
   double trace_held_s = 0.0;
-  // Per-tick compute time (wall clock), microseconds.
+  // Per-tick compute time (wall clock), microseconds (percentiles to 1.6 %: the upper edge
+  // of a LatencyHistogram's bucket).
   double compute_p50_us = 0.0;
   double compute_p99_us = 0.0;
   double compute_max_us = 0.0;
@@ -44,13 +48,16 @@ double percentile(std::vector<double> values, double pct);
 
 /// Median, p99, p99.9 and maximum of `values_us` (reorders nothing; copies).
 DurationStats duration_stats(const std::vector<double>& values_us);
+/// The same of a histogram's durations (each percentile the upper edge of its bucket: at
+/// most 1.6 % above the exact one; the maximum exact).
+DurationStats duration_stats(const LatencyHistogram& histogram);
 
 /// Accumulates a replay's rows, in tick order, into its summary.
 class SummaryBuilder {
  public:
-  /// Takes the run's length and the trace's gaps from `device`; reserves a compute time
-  /// per tick (before any loop starts).
-  explicit SummaryBuilder(const TraceDevice& device);
+  /// Takes the rate, the run's length (when known, checked by finish()) and the trace's
+  /// gaps from `device`. Its memory is fixed: a run of any length can be summarised.
+  explicit SummaryBuilder(const Device& device);
 
   /// One tick's row, as sent. `nonfinite`: the model's force was not finite (sent as 0).
   void add(const TickRecord& row, bool nonfinite);
@@ -61,7 +68,9 @@ class SummaryBuilder {
  private:
   ReplaySummary summary_;
   double rate_hz_;
-  std::vector<double> compute_us_;
+  std::size_t expected_ticks_;
+  double first_time_s_ = 0.0;
+  LatencyHistogram compute_;
 };
 
 }  // namespace hapvox::haptics

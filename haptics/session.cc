@@ -90,6 +90,7 @@ SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
   ds_.contact = create_column(file_, "contact", H5T_STD_U8LE, 1, nullptr);
   ds_.holding = create_column(file_, "holding", H5T_STD_U8LE, 1, nullptr);
   ds_.clamped = create_column(file_, "clamped", H5T_STD_U8LE, 1, nullptr);
+  ds_.device_sequence = create_column(file_, "device_sequence", H5T_STD_I64LE, 1, nullptr);
   // Wall-clock measurements live under /timing: the only data that differ between runs.
   const hid_t timing = H5Gcreate2(file_, "timing", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   ds_.compute_ns = create_column(timing, "compute_ns", H5T_STD_I64LE, 1, "ns");
@@ -124,17 +125,29 @@ SessionWriter::~SessionWriter() {
 }
 
 void SessionWriter::close_datasets() {
-  for (hid_t d : {ds_.time_s,           ds_.device_position_mm,
-                  ds_.tool_position_mm, ds_.force_n,
-                  ds_.force_scale,      ds_.displacement_mm,
-                  ds_.contact_area_mm2, ds_.contact,
-                  ds_.holding,          ds_.clamped,
-                  ds_.compute_ns,       ds_.strain,
-                  ds_.stress_pa,        ds_.zone,
-                  ds_.plastic_event,    ds_.queue_depth,
-                  ds_.deleted_voxels,   ds_.relaxed_voxels,
-                  ds_.total_mass_units, ds_.scheduled_ns,
-                  ds_.start_ns,         ds_.lateness_ns,
+  for (hid_t d : {ds_.time_s,
+                  ds_.device_position_mm,
+                  ds_.tool_position_mm,
+                  ds_.force_n,
+                  ds_.force_scale,
+                  ds_.displacement_mm,
+                  ds_.contact_area_mm2,
+                  ds_.contact,
+                  ds_.holding,
+                  ds_.clamped,
+                  ds_.device_sequence,
+                  ds_.compute_ns,
+                  ds_.strain,
+                  ds_.stress_pa,
+                  ds_.zone,
+                  ds_.plastic_event,
+                  ds_.queue_depth,
+                  ds_.deleted_voxels,
+                  ds_.relaxed_voxels,
+                  ds_.total_mass_units,
+                  ds_.scheduled_ns,
+                  ds_.start_ns,
+                  ds_.lateness_ns,
                   ds_.watchdog}) {
     H5Dclose(d);
   }
@@ -227,6 +240,7 @@ void SessionWriter::flush_rows() {
     for (std::size_t i = 0; i < n; ++i) ints[i] = field(buffer_[i]);
     write_column(ds, H5T_NATIVE_INT64, ints.data(), 1);
   };
+  int_column(ds_.device_sequence, [](const TickRecord& r) { return r.device_sequence; });
   int_column(ds_.compute_ns, [](const TickRecord& r) { return r.compute_ns; });
   int_column(ds_.scheduled_ns, [](const TickRecord& r) { return r.scheduled_ns; });
   int_column(ds_.start_ns, [](const TickRecord& r) { return r.start_ns; });

@@ -27,8 +27,9 @@ struct TickRecord {
   Vec3d displacement_mm = Vec3d::Zero();     // u = x_n - x0 of the elastic model
   double contact_area_mm2 = 0.0;
   std::uint8_t contact = 0;
-  std::uint8_t holding = 0;  // trace gap: tool held
-  std::uint8_t clamped = 0;  // force magnitude limited to the device maximum
+  std::uint8_t holding = 0;           // trace gap: tool held
+  std::uint8_t clamped = 0;           // force magnitude limited to the device maximum
+  std::int64_t device_sequence = -1;  // the device sample used: trace tick, packet sequence
   std::int64_t compute_ns = 0;
   std::int64_t scheduled_ns = 0;  // deadline of the tick, from the start of the run
   std::int64_t start_ns = 0;      // when its computation started (lockstep: = scheduled)
@@ -94,7 +95,7 @@ class SessionWriter {
     hid_t time_s, device_position_mm, tool_position_mm, force_n, displacement_mm, contact_area_mm2,
         contact, holding, clamped, compute_ns, strain, stress_pa, zone, plastic_event, queue_depth,
         deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns, lateness_ns,
-        watchdog, force_scale;
+        watchdog, force_scale, device_sequence;
   } ds_{};
   std::vector<TickRecord> buffer_;
   std::size_t rows_written_ = 0;

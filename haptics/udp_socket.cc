@@ -6,6 +6,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
@@ -112,9 +113,11 @@ long UdpSocket::receive(std::uint8_t* buffer, std::size_t capacity, SocketAddres
   return static_cast<long>(n);
 }
 
-bool UdpSocket::wait_readable(int timeout_ms) const noexcept {
+bool UdpSocket::wait_readable(std::chrono::nanoseconds timeout) const noexcept {
   pollfd p{fd_, POLLIN, 0};
-  return ::poll(&p, 1, timeout_ms) > 0 && (p.revents & POLLIN) != 0;
+  const std::int64_t ns = std::max<std::int64_t>(0, timeout.count());
+  const timespec wait{static_cast<time_t>(ns / 1000000000), static_cast<long>(ns % 1000000000)};
+  return ::ppoll(&p, 1, &wait, nullptr) > 0 && (p.revents & POLLIN) != 0;
 }
 
 bool UdpSocket::send_to(const std::uint8_t* data, std::size_t size,

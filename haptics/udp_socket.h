@@ -6,6 +6,7 @@
 
 #include <sys/socket.h>
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -50,9 +51,9 @@ class UdpSocket {
   /// blocks, allocates or throws. `from` (if not null) gets the sender.
   long receive(std::uint8_t* buffer, std::size_t capacity, SocketAddress* from) noexcept;
 
-  /// Waits up to `timeout_ms` for a datagram to arrive (for threads that may sleep: not the
-  /// force thread). True when one is waiting.
-  bool wait_readable(int timeout_ms) const noexcept;
+  /// Waits up to `timeout` for a datagram to arrive (nanosecond resolution; a thread asleep
+  /// here wakes within the scheduler's latency of the arrival). True when one is waiting.
+  bool wait_readable(std::chrono::nanoseconds timeout) const noexcept;
 
   /// Sends one datagram; false when the system refused it (the caller counts it).
   bool send_to(const std::uint8_t* data, std::size_t size, const SocketAddress& to) noexcept;

@@ -251,7 +251,7 @@ SculptSummary RelaxationStage::finish(const LockstepRender* render, RenderFeed* 
 
 // --- Entry points ---
 
-ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
+ReplaySummary replay_lockstep(const engine::ToolForceModel& model, Device& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, SculptContext* sculpt,
                               SculptSummary* sculpt_summary, const LockstepRender* render) {
@@ -268,7 +268,7 @@ ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDe
                          render);
 }
 
-ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDevice& device,
+ReplaySummary replay_realtime(const engine::ToolForceModel& model, Device& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, RealtimeSculpt* sculpt,
                               SculptSummary* sculpt_summary, TimingSummary* timing,

@@ -142,14 +142,14 @@ struct RealtimeSculpt {
 
 /// replay_lockstep (haptics/replay.h) with the voxel model's stages built from `model`
 /// and, when sculpting, `sculpt`.
-ReplaySummary replay_lockstep(const engine::ToolForceModel& model, const TraceDevice& device,
+ReplaySummary replay_lockstep(const engine::ToolForceModel& model, Device& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress = {}, SculptContext* sculpt = nullptr,
                               SculptSummary* sculpt_summary = nullptr,
                               const LockstepRender* render = nullptr);
 
 /// replay_realtime (haptics/realtime.h) with the voxel model's stages.
-ReplaySummary replay_realtime(const engine::ToolForceModel& model, const TraceDevice& device,
+ReplaySummary replay_realtime(const engine::ToolForceModel& model, Device& device,
                               const DeviceLimits& limits, SessionWriter* session,
                               const ProgressFn& progress, RealtimeSculpt* sculpt,
                               SculptSummary* sculpt_summary, TimingSummary* timing,

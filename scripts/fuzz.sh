@@ -98,7 +98,7 @@ done
 python3 - "$seeds/bridge_fuzz" <<'PY'
 import struct, sys
 head = lambda kind, seq: b"HVXB" + struct.pack("<HHIQ", 1, kind, seq, 123456789)
-position = head(1, 7) + struct.pack("<3d4dII", 10.0, -20.0, 30.5, 1.0, 0.0, 0.0, 0.0, 1, 1)
+position = head(1, 7) + struct.pack("<3d4dIII", 10.0, -20.0, 30.5, 1.0, 0.0, 0.0, 0.0, 3, 1, 150000)
 force = head(2, 8) + struct.pack("<IQQ3dI", 7, 123456789, 1000, 0.5, 0.0, -1.0, 1)
 open(sys.argv[1] + "/position", "wb").write(b"\0" + position)
 open(sys.argv[1] + "/force", "wb").write(b"\1" + force)

@@ -81,6 +81,21 @@ std::map<std::string, double> measure(const std::vector<std::pair<std::string, B
   return collector.median_ns;
 }
 
+std::map<std::string, double> measure_manual_time(
+    const std::vector<std::pair<std::string, BenchFn>>& fns, int iterations) {
+  benchmark::ClearRegisteredBenchmarks();
+  for (const auto& [name, fn] : fns) {
+    benchmark::RegisterBenchmark(name.c_str(), fn)
+        ->Unit(benchmark::kNanosecond)
+        ->UseManualTime()
+        ->Iterations(iterations);
+  }
+  MedianCollector collector;
+  benchmark::RunSpecifiedBenchmarks(&collector);
+  benchmark::ClearRegisteredBenchmarks();
+  return collector.median_ns;
+}
+
 namespace {
 
 std::string read_first_line_with(const std::string& path, const std::string& key) {

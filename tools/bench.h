@@ -35,6 +35,10 @@ void init_benchmark(double min_time_s, int repetitions);
 using BenchFn = std::function<void(benchmark::State&)>;
 /// Runs the named benchmarks in one go; median nanoseconds per iteration by name.
 std::map<std::string, double> measure(const std::vector<std::pair<std::string, BenchFn>>& fns);
+/// The same for benchmarks that time themselves (State::SetIterationTime), each run for
+/// `iterations` iterations per repetition.
+std::map<std::string, double> measure_manual_time(
+    const std::vector<std::pair<std::string, BenchFn>>& fns, int iterations);
 
 /// The machine a bench ran on (CPU, cores, memory, kernel, compiler, build type, library
 /// versions, date), as key-value pairs for the CSV and JSON outputs.

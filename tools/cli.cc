@@ -187,6 +187,10 @@ haptics::DeviceTransform TransformFlags::resolve(const haptics::Trace& trace,
     }
     return haptics::fit_trace_into_box(trace, field.world_min_mm(), field.world_max_mm());
   }
+  return resolve_fixed();
+}
+
+haptics::DeviceTransform TransformFlags::resolve_fixed() const {
   if (!std::isfinite(scale) || scale <= 0.0) throw InputError("--scale", "must be positive");
   haptics::DeviceTransform transform;
   transform.scale = scale;

@@ -59,6 +59,8 @@ struct TransformFlags {
   void add_to(CLI::App& app);
   haptics::DeviceTransform resolve(const haptics::Trace& trace,
                                    const engine::DensityField& field) const;
+  /// Without a trace (a live device): --fit is refused by the caller.
+  haptics::DeviceTransform resolve_fixed() const;
 };
 
 /// --youngs-modulus-pa, --poisson, --tool-diameter-mm, --contact-law,

@@ -23,7 +23,8 @@
 
 namespace hapvox::cli {
 
-void add_bench_fem_command(CLI::App& bench);  // tools/cmd_bench_fem.cc
+void add_bench_fem_command(CLI::App& bench);     // tools/cmd_bench_fem.cc
+void add_bench_bridge_command(CLI::App& bench);  // tools/cmd_bench_bridge.cc
 
 namespace {
 
@@ -261,6 +262,7 @@ void add_bench_command(CLI::App& app) {
     if (bench->get_subcommands().empty()) run_bench_table1(*plain_flags);
   });
   add_bench_fem_command(*bench);
+  add_bench_bridge_command(*bench);
   // Checked once bench's command line is parsed, before any benchmark runs (subcommands'
   // callbacks come first): plain bench's options given before a subcommand are refused.
   bench->parse_complete_callback([bench] {

@@ -21,6 +21,11 @@ namespace hapvox::cli {
 namespace {
 
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
+  const bool live = !f.device.empty();
+  if (live) check_bridge_flags(f);
+  if (f.trace_path.empty() && !live) {
+    throw InputError("trace", "a trace file is needed (or --device udp:HOST:PORT)");
+  }
   if (f.model == "fem") return run_fem_replay(f, command_line);
   if (f.model != "voxel")
     throw InputError("--model", "unknown model '" + f.model + "' (voxel or fem)");
@@ -45,7 +50,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     check_output_path(f.sculpt_out + ".vdb", "--sculpt-out");
   }
   std::vector<InputPath> inputs = volume_inputs(f.volume);
-  inputs.push_back({f.trace_path, "trace"});
+  if (!live) inputs.push_back({f.trace_path, "trace"});
   for (const InputPath& input : fem_inputs(f.fem_mesh)) inputs.push_back(input);
   if (!f.render_dir.empty()) {
     for (const InputPath& input : transfer_inputs(f.render.transfer)) inputs.push_back(input);
@@ -79,7 +84,6 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   // Sculpted clay settles to its normal density: its nominal surface is at half of that.
   if (!f.force.surface_density_given) force_options.surface_density = 0.5 * f.normal_density;
 
-  const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
   // Materials by tissue: the labels give each voxel its density and material.
   std::optional<engine::labels::TissueVolume> tissue;
   if (by_tissue) {
@@ -92,18 +96,30 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (f.realtime && f.plastic) buffers = std::make_unique<haptics::DoubleBufferedField>(field);
   const engine::ToolForceModel model(buffers ? buffers->buffer(0) : field, force_options,
                                      tissue ? &tissue->tissue : nullptr);
-  const haptics::DeviceTransform transform = f.transform.resolve(trace, field);
-  haptics::ResampleOptions resample_options;
-  resample_options.rate_hz = f.trace.rate_hz;
-  resample_options.max_gap_s = f.trace.max_gap_s;
-  const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
-  const std::vector<std::string> warnings = replay_warnings(f.trace_path, model, device);
+  // The device: a replayed trace, or a live one behind the bridge (bound here, before any
+  // file is made: a port in use is one line).
+  std::unique_ptr<haptics::TraceDevice> traced;
+  std::unique_ptr<haptics::BridgeDevice> bridge;
+  std::vector<std::string> warnings;
+  if (live) {
+    bridge = make_bridge_device(f, f.transform.resolve_fixed());
+  } else {
+    const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
+    haptics::ResampleOptions resample_options;
+    resample_options.rate_hz = f.trace.rate_hz;
+    resample_options.max_gap_s = f.trace.max_gap_s;
+    traced = std::make_unique<haptics::TraceDevice>(haptics::resample(trace, resample_options),
+                                                    f.transform.resolve(trace, field));
+    warnings = replay_warnings(f.trace_path, model, *traced);
+  }
+  haptics::Device& device = live ? static_cast<haptics::Device&>(*bridge) : *traced;
 
   // The render output before the session: a machine without EGL fails before any file.
   std::unique_ptr<FrameRecorder> recorder =
       make_replay_recorder(f, field, 0.5 * model.options().tool.diameter_mm);
   haptics::SessionWriter session(f.output);
-  write_run_attributes(session, f, command_line, columns, mapping, field, device);
+  write_run_attributes(session, f, command_line, columns, mapping, field, device,
+                       traced ? &traced->trace() : nullptr);
 
   if (tissue) write_tissue_attributes(session, f.fem_mesh.materials, tissue->tissue);
   session.set_attribute("plastic", std::int64_t{f.plastic ? 1 : 0});
@@ -144,6 +160,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     const haptics::ProgressFn progress = progress_bar(f, device);
     if (f.realtime) {
       haptics::RealtimeOptions options = realtime_options(f);
+      if (live) options.stop = stop_request();
       if (recorder) {
         options.render_loop = recorder->realtime_loop(f.render_fps);
         options.scheduler.lock_future_memory = false;
@@ -169,6 +186,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     throw;
   }
   write_summary_attributes(session, f, s, timing);
+  if (bridge) write_bridge_attributes(session, *bridge);
   if (f.realtime && f.plastic) {
     session.set_attribute("summary_relax_slice_p50_us", timing.relax_slice.p50_us);
     session.set_attribute("summary_relax_slice_p99_us", timing.relax_slice.p99_us);
@@ -194,8 +212,8 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     engine::write_nrrd(sculpted_field, f.sculpt_out + ".nrrd");
   }
 
-  std::printf("replayed %s on %s -> %s\n", f.trace_path.c_str(), f.volume.c_str(),
-              f.output.c_str());
+  std::printf("replayed %s on %s -> %s\n", live ? f.device.c_str() : f.trace_path.c_str(),
+              f.volume.c_str(), f.output.c_str());
   print_run_report(f, s, timing, device,
                    "(" + std::to_string(model.surface_sample_count()) + " surface samples)");
   if (f.realtime && f.plastic) {
@@ -222,6 +240,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                   f.sculpt_out.c_str());
     }
   }
+  if (bridge) print_bridge_lines(*bridge);
   if (recorder) print_render_line(f, *recorder, timing);
   print_run_footer(s);
   print_warnings(warnings);
@@ -229,7 +248,17 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
 }
 
 void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
-  cmd->add_option("trace", flags->trace_path, "Trace file (.csv or .h5)")->required();
+  cmd->add_option("trace", flags->trace_path, "Trace file (.csv or .h5); or --device");
+  cmd->add_option("--device", flags->device,
+                  "udp:HOST:PORT: take the tool from a live device program through the bridge "
+                  "(docs/formats.md: Device bridge packets; hapvox device-sim is its reference "
+                  "client) instead of a trace; needs --realtime");
+  cmd->add_option("--silence-timeout-s", flags->silence_timeout_s,
+                  "--device: no position for this long and the force ramps out")
+      ->capture_default_str();
+  cmd->add_option("--end-after-silence-s", flags->end_after_silence_s,
+                  "--device: end the session after this long without a position (0: never)")
+      ->capture_default_str();
   cmd->add_option("--volume,-v", flags->volume, volume_help())->required();
   cmd->add_option("--max-force-n", flags->limits.max_force_n, "Device force limit, N")
       ->capture_default_str();

@@ -19,6 +19,7 @@ void add_render_command(CLI::App& app);          // tools/cmd_render.cc
 void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
 void add_mesh_command(CLI::App& app);            // tools/cmd_mesh.cc
 void add_convert_command(CLI::App& app);         // tools/cmd_convert.cc
+void add_device_sim_command(CLI::App& app);      // tools/cmd_device_sim.cc
 }  // namespace hapvox::cli
 
 namespace {
@@ -85,6 +86,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_validate_command(app);
   hapvox::cli::add_mesh_command(app);
   hapvox::cli::add_convert_command(app);
+  hapvox::cli::add_device_sim_command(app);
   try {
     check_command_names(app, argc, argv);
     app.parse(argc, argv);

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "haptics/bridge_device.h"
 #include "haptics/fem_model.h"
 #include "haptics/realtime.h"
 #include "haptics/voxel_model.h"
@@ -18,6 +19,9 @@ namespace hapvox::cli {
 
 struct ReplayFlags {
   std::string trace_path;
+  std::string device;  // --device udp:HOST:PORT: a live device through the bridge
+  double silence_timeout_s = 0.01;
+  double end_after_silence_s = 5.0;
   std::string volume;
   std::string output;
   bool quiet = false;
@@ -75,6 +79,16 @@ haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const hapti
                                             const haptics::FemBackgroundStage& fem,
                                             std::size_t every_ticks);
 
+/// --device's flags (tools/replay_bridge.cc); InputError naming the flag.
+void check_bridge_flags(const ReplayFlags& f);
+/// The bridge device listening on --device; Ctrl-C and SIGTERM end its session cleanly.
+std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
+    const ReplayFlags& f, const haptics::DeviceTransform& transform);
+/// Set by Ctrl-C / SIGTERM once make_bridge_device has run.
+const std::atomic<bool>* stop_request();
+void write_bridge_attributes(haptics::SessionWriter& session, const haptics::BridgeDevice& device);
+void print_bridge_lines(const haptics::BridgeDevice& device);
+
 /// The flags every model checks alike (limits, rates, scheduling); InputError naming the flag.
 void check_loop_flags(const ReplayFlags& f);
 
@@ -82,14 +96,15 @@ void check_loop_flags(const ReplayFlags& f);
 haptics::RealtimeOptions realtime_options(const ReplayFlags& f);
 
 /// The progress bar (stderr), when it is shown.
-haptics::ProgressFn progress_bar(const ReplayFlags& f, const haptics::TraceDevice& device);
+haptics::ProgressFn progress_bar(const ReplayFlags& f, const haptics::Device& device);
 
-/// The attributes of the run itself: command line, trace, volume, clock, limits, transform,
-/// versions.
+/// The attributes of the run itself: command line, trace (null: the live --device), volume,
+/// clock, limits, transform, versions.
 void write_run_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
                           const std::string& command_line, const haptics::TraceColumns& columns,
                           const engine::IntensityMapping& mapping,
-                          const engine::DensityField& field, const haptics::TraceDevice& device);
+                          const engine::DensityField& field, const haptics::Device& device,
+                          const haptics::ResampledTrace* trace);
 
 /// The summary attributes: summary_*, and in realtime the lateness, deadlines, scheduler.
 void write_summary_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
@@ -99,7 +114,7 @@ void write_summary_attributes(haptics::SessionWriter& session, const ReplayFlags
 /// The report's first lines (ticks, tool, contact, peak force, compute) and in realtime the
 /// loop's timing; `compute_note` ends the compute line, e.g. "(812 surface samples)".
 void print_run_report(const ReplayFlags& f, const haptics::ReplaySummary& s,
-                      const haptics::TimingSummary& timing, const haptics::TraceDevice& device,
+                      const haptics::TimingSummary& timing, const haptics::Device& device,
                       const std::string& compute_note);
 
 /// The report's last lines: trace gaps and non-finite forces.

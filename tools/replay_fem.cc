@@ -89,7 +89,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   haptics::ResampleOptions resample_options;
   resample_options.rate_hz = f.trace.rate_hz;
   resample_options.max_gap_s = f.trace.max_gap_s;
-  const haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
+  haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
   if (device.tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
   if (!f.render_dir.empty()) check_render_flags(f, field);  // before the mesh is built
   const ProxyInputs proxy_inputs =
@@ -115,7 +115,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   if (recorder) recorder->use_proxy_mesh();
 
   haptics::SessionWriter session(f.output);
-  write_run_attributes(session, f, command_line, columns, mapping, field, device);
+  write_run_attributes(session, f, command_line, columns, mapping, field, device, &device.trace());
   if (incision) {
     session.set_attribute("incision", incision->source);
     session.set_attribute("incision_width_mm", incision->width_mm);

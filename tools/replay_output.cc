@@ -42,6 +42,43 @@ void print_progress(std::size_t done, std::size_t total) {
   if (done == total) std::fprintf(stderr, "\n");
 }
 
+void write_trace_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
+                            const haptics::TraceColumns& columns,
+                            const haptics::ResampledTrace& trace) {
+  session.set_attribute("trace_file", f.trace_path);
+  session.set_attribute("trace_columns", columns.time + "," + f.trace.pos_cols);
+  session.set_attribute("trace_units", f.trace.time_unit + "," + f.trace.pos_unit);
+  // An H3D DeviceLog names its own fields and units: the column flags did not apply.
+  if (haptics::is_h3d_device_log(f.trace_path)) {
+    session.set_attribute("trace_format", std::string("h3d-devicelog"));
+  }
+  // The stylus orientation per tick, for 6-DoF tools later (the sphere does not turn).
+  const std::vector<Eigen::Quaterniond>& turn = trace.orientation;
+  if (!turn.empty()) {
+    std::vector<double> wxyz;
+    wxyz.reserve(4 * turn.size());
+    for (const Eigen::Quaterniond& q : turn) {
+      wxyz.insert(wxyz.end(), {q.w(), q.x(), q.y(), q.z()});
+    }
+    session.write_array("device_orientation", wxyz, {turn.size(), 4}, "quaternion w,x,y,z");
+  }
+}
+
+void write_volume_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
+                             const engine::IntensityMapping& mapping,
+                             const engine::DensityField& field) {
+  session.set_attribute("volume", f.volume);
+  session.set_attribute("volume_mapping", mapping_text(mapping));
+  session.set_attribute("volume_dims", field.dims().cast<double>().eval());
+  session.set_attribute("voxel_size_mm", field.voxel_size_mm());
+  session.set_attribute("volume_origin_mm", field.origin_mm());
+  // The index axes' world (LPS) directions, as columns: the volume's orientation.
+  std::ostringstream direction;
+  direction << field.direction().format(
+      Eigen::IOFormat(Eigen::FullPrecision, Eigen::DontAlignCols, ",", ";"));
+  session.set_attribute("volume_direction", direction.str());
+}
+
 }  // namespace
 
 void print_stats_line(const char* label, const haptics::DurationStats& d) {
@@ -76,44 +113,25 @@ haptics::RealtimeOptions realtime_options(const ReplayFlags& f) {
   return realtime_options;
 }
 
-haptics::ProgressFn progress_bar(const ReplayFlags& f, const haptics::TraceDevice& device) {
-  const bool show_progress = !f.quiet && isatty(STDERR_FILENO) && device.tick_count() >= 2000;
+haptics::ProgressFn progress_bar(const ReplayFlags& f, const haptics::Device& device) {
+  const bool show_progress = !f.quiet && isatty(STDERR_FILENO) && device.tick_count() >= 2000 &&
+                             device.tick_count() != haptics::Device::kUnbounded;
   return show_progress ? haptics::ProgressFn(print_progress) : haptics::ProgressFn();
 }
 
 void write_run_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
                           const std::string& command_line, const haptics::TraceColumns& columns,
                           const engine::IntensityMapping& mapping,
-                          const engine::DensityField& field, const haptics::TraceDevice& device) {
+                          const engine::DensityField& field, const haptics::Device& device,
+                          const haptics::ResampledTrace* trace) {
   const haptics::DeviceTransform& transform = device.transform();
   session.set_attribute("command_line", command_line);
-  session.set_attribute("trace_file", f.trace_path);
-  session.set_attribute("trace_columns", columns.time + "," + f.trace.pos_cols);
-  session.set_attribute("trace_units", f.trace.time_unit + "," + f.trace.pos_unit);
-  // An H3D DeviceLog names its own fields and units: the column flags did not apply.
-  if (haptics::is_h3d_device_log(f.trace_path)) {
-    session.set_attribute("trace_format", std::string("h3d-devicelog"));
+  if (trace == nullptr) {
+    session.set_attribute("device", f.device);
+  } else {
+    write_trace_attributes(session, f, columns, *trace);
   }
-  // The stylus orientation per tick, for 6-DoF tools later (the sphere does not turn).
-  const std::vector<Eigen::Quaterniond>& turn = device.trace().orientation;
-  if (!turn.empty()) {
-    std::vector<double> wxyz;
-    wxyz.reserve(4 * turn.size());
-    for (const Eigen::Quaterniond& q : turn) {
-      wxyz.insert(wxyz.end(), {q.w(), q.x(), q.y(), q.z()});
-    }
-    session.write_array("device_orientation", wxyz, {turn.size(), 4}, "quaternion w,x,y,z");
-  }
-  session.set_attribute("volume", f.volume);
-  session.set_attribute("volume_mapping", mapping_text(mapping));
-  session.set_attribute("volume_dims", field.dims().cast<double>().eval());
-  session.set_attribute("voxel_size_mm", field.voxel_size_mm());
-  session.set_attribute("volume_origin_mm", field.origin_mm());
-  // The index axes' world (LPS) directions, as columns: the volume's orientation.
-  std::ostringstream direction;
-  direction << field.direction().format(
-      Eigen::IOFormat(Eigen::FullPrecision, Eigen::DontAlignCols, ",", ";"));
-  session.set_attribute("volume_direction", direction.str());
+  write_volume_attributes(session, f, mapping, field);
   session.set_attribute("loop_rate_hz", device.rate_hz());
   session.set_attribute("clock", std::string(f.realtime ? "realtime" : "lockstep"));
   session.set_attribute("max_gap_s", f.trace.max_gap_s);
@@ -167,13 +185,13 @@ void write_summary_attributes(haptics::SessionWriter& session, const ReplayFlags
 }
 
 void print_run_report(const ReplayFlags& f, const haptics::ReplaySummary& s,
-                      const haptics::TimingSummary& timing, const haptics::TraceDevice& device,
+                      const haptics::TimingSummary& timing, const haptics::Device& device,
                       const std::string& compute_note) {
   std::printf("  ticks            %zu at %.0f Hz (%.3f s, %s)\n", s.ticks, device.rate_hz(),
               s.duration_s, f.realtime ? "realtime" : "simulated, lockstep");
   std::printf("  tool position    %s .. %s mm (volume space)\n",
-              vec_text(device.tool_position_mm(0)).c_str(),
-              vec_text(device.tool_position_mm(s.ticks - 1)).c_str());
+              vec_text(s.first_tool_position_mm).c_str(),
+              vec_text(s.last_tool_position_mm).c_str());
   std::printf("  contact          %.3f s in %zu ticks, %llu contact onsets\n", s.contact_time_s,
               s.contact_ticks, static_cast<unsigned long long>(s.contact_onsets));
   std::printf("  peak force       %.4f N (clamped on %zu ticks at %.2f N)\n", s.peak_force_n,

@@ -22,6 +22,7 @@ PositionPacket sample_position() {
   p.orientation_wxyz = {std::sqrt(0.5), 0.0, -std::sqrt(0.5), 0.0};
   p.buttons = kButtonGrab | kButtonDeadMan;
   p.flags = kPositionHasOrientation;
+  p.round_trip_ns = 0xA1B2C3D4u;
   return p;
 }
 
@@ -34,7 +35,7 @@ std::vector<std::uint8_t> encoded(const PositionPacket& p) {
 TEST(BridgePacket, PositionBytesAreTheDocumentedLittleEndianLayout) {
   const std::vector<std::uint8_t> b = encoded(sample_position());
   ASSERT_EQ(b.size(), kPositionPacketBytes);
-  ASSERT_EQ(b.size(), 84u);
+  ASSERT_EQ(b.size(), 88u);
   EXPECT_EQ(std::vector<std::uint8_t>(b.begin(), b.begin() + 4),
             (std::vector<std::uint8_t>{'H', 'V', 'X', 'B'}));
   EXPECT_EQ(b[4], 1);  // version 1
@@ -52,6 +53,8 @@ TEST(BridgePacket, PositionBytesAreTheDocumentedLittleEndianLayout) {
             (std::vector<std::uint8_t>{0, 0, 0, 0, 0, 0, 0x04, 0xC0}));
   EXPECT_EQ(b[76], 3);  // buttons: grab | dead-man
   EXPECT_EQ(b[80], 1);  // flags: has orientation
+  EXPECT_EQ(std::vector<std::uint8_t>(b.begin() + 84, b.begin() + 88),
+            (std::vector<std::uint8_t>{0xD4, 0xC3, 0xB2, 0xA1}));  // round_trip_ns
 }
 
 TEST(BridgePacket, PositionAndForceRoundTripBitForBit) {
@@ -67,6 +70,7 @@ TEST(BridgePacket, PositionAndForceRoundTripBitForBit) {
   EXPECT_EQ(back.orientation_wxyz, p.orientation_wxyz);
   EXPECT_EQ(back.buttons, p.buttons);
   EXPECT_EQ(back.flags, p.flags);
+  EXPECT_EQ(back.round_trip_ns, p.round_trip_ns);
 
   ForcePacket f;
   f.header.sequence = 0xFFFFFFFFu;

@@ -60,7 +60,7 @@ struct FemRun {
 };
 
 // A lockstep run of `device` through the FEM stages, recording every row.
-inline FemRun run_lockstep(const FemModel& model, const TraceDevice& device,
+inline FemRun run_lockstep(const FemModel& model, TraceDevice device,
                            std::vector<LabelChange> changes = {}) {
   // The order replay_lockstep runs them in, with every row kept.
   FemRun run;

@@ -68,7 +68,7 @@ TEST(FemHertz, PressForceFollowsHertzWithinTheMeshStiffening) {
     trace.position_mm.push_back(Vec3d(c, c, kDepthMm + kRadiusMm - 0.8 * k / (ticks - 1.0)));
     trace.holding.push_back(0);
   }
-  const TraceDevice device(std::move(trace), DeviceTransform{});
+  TraceDevice device(std::move(trace), DeviceTransform{});
   auto handoff = std::make_unique<FemHandoff>();
   FemForceStage force(model, *handoff);
   FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));

@@ -109,7 +109,7 @@ TEST(FemRealtime, ATimedIncisionIsTakenOverByTheFemThreadAndHeldOpen) {
   // rebuild thread at nice 10: milliseconds alone, over 0.4 s under ThreadSanitizer beside
   // a compile) is taken over well before the end, as in the rebuild test.
   const Vec3d start(6.0, 6.0, kBlockTopMm);
-  const TraceDevice device = device_along(3000, [start](std::size_t k) {
+  TraceDevice device = device_along(3000, [start](std::size_t k) {
     return Vec3d(start + Vec3d(0.0, 0.0, std::min(1.0, static_cast<double>(k) / 200.0)));
   });
   auto handoff = std::make_unique<FemHandoff>();

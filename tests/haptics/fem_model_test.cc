@@ -28,7 +28,7 @@ using namespace fem_fixtures;
 TEST(FemGrab, ForceEqualsAFullSolveWithTheCapturedVerticesHeldAtAnyFemRate) {
   const FemModel every_tick(block(), options(FemInteraction::kGrab, 1));
   const FemModel every_ten(block(), options(FemInteraction::kGrab, 10));
-  const TraceDevice device = grab_path();
+  TraceDevice device = grab_path();
   const FemRun fast = run_lockstep(every_tick, device);
   const FemRun slow = run_lockstep(every_ten, device);
   ASSERT_EQ(fast.captured.size(), 6u);
@@ -74,7 +74,7 @@ TEST(FemCorotational, ASmallGrabFeelsLikeLinearAndALargeOneStaysDisplacementCont
   corotational.solver = FemSolver::kCorotational;
   // 0.02 mm: rotations of order 1e-3, so the warped stiffness is the linear one to about
   // that; a stage that used W or the loads wrongly in this mode would differ at O(1).
-  const TraceDevice small = sideways_grab_path(0.02);
+  TraceDevice small = sideways_grab_path(0.02);
   const FemRun lin = run_lockstep(FemModel(block(), linear), small);
   const FemRun cor = run_lockstep(FemModel(block(), corotational), small);
   ASSERT_EQ(cor.captured, lin.captured);
@@ -86,7 +86,7 @@ TEST(FemCorotational, ASmallGrabFeelsLikeLinearAndALargeOneStaysDisplacementCont
   // material pulls back along -x, and the held vertices never move.
   corotational.coupling_n_per_mm = 1000.0;
   const FemModel model(block(), corotational);
-  const TraceDevice large = sideways_grab_path(3.0);
+  TraceDevice large = sideways_grab_path(3.0);
   const FemRun run = run_lockstep(model, large);
   const Vec3d proxy = large.tool_position_mm(399) + run.force_n.back() / 1000.0;
   const Vec3d offset = proxy - large.tool_position_mm(0);
@@ -112,7 +112,7 @@ TraceDevice press_path() {
 TEST(FemPress, ForceIsContinuousPushesOutAndDoesNotDependOnTheFemRate) {
   const FemModel every_tick(block(), options(FemInteraction::kPress, 1));
   const FemModel every_ten(block(), options(FemInteraction::kPress, 10));
-  const TraceDevice device = press_path();
+  TraceDevice device = press_path();
   const FemRun fast = run_lockstep(every_tick, device);
   const FemRun slow = run_lockstep(every_ten, device);
   const double peak = peak_n(fast.force_n);
@@ -166,7 +166,7 @@ TEST(FemPress, ADeepPressStillPushesOutAndHarderTheDeeper) {
   FemOptions o = options(FemInteraction::kPress, 10);
   o.coupling_n_per_mm = 0.2;
   const FemModel model(block(), o);
-  const TraceDevice device = device_along(1200, [](std::size_t k) {
+  TraceDevice device = device_along(1200, [](std::size_t k) {
     const double depth_mm = -0.5 + 10.0 * static_cast<double>(k) / 1199.0;
     return Vec3d(6.0, 6.0, kBlockTopMm + 4.0 - depth_mm);
   });
@@ -180,7 +180,7 @@ TEST(FemPress, ADeepPressStillPushesOutAndHarderTheDeeper) {
 
 TEST(FemPress, TwoLockstepRunsAreBitIdentical) {
   const FemModel model(block(), options(FemInteraction::kPress, 10));
-  const TraceDevice device = press_path();
+  TraceDevice device = press_path();
   const FemRun a = run_lockstep(model, device);
   const FemRun b = run_lockstep(model, device);
   ASSERT_EQ(a.frames.size(), b.frames.size());
@@ -217,7 +217,7 @@ TEST(FemGrab, NothingWithinReachIsAnInputErrorNamingTheNearestVertex) {
 
 TEST(FemRealtime, TheFemThreadStepsBesideTheForceThreadAndItsForcesAreFinite) {
   const FemModel model(block(), options(FemInteraction::kPress, 10));
-  const TraceDevice device = press_path();
+  TraceDevice device = press_path();
   auto handoff = std::make_unique<FemHandoff>();
   FemForceStage force(model, *handoff);
   FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));

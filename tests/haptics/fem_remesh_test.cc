@@ -42,7 +42,7 @@ LabelChange change_at(std::int64_t tick, std::function<engine::proxy::ProxyMesh(
 
 TEST(FemRemesh, RebuildingTheSameMeshMidGrabChangesNoForce) {
   const FemModel model(block(), options(FemInteraction::kGrab, 10));
-  const TraceDevice device = grab_path();
+  TraceDevice device = grab_path();
   const FemRun plain = run_lockstep(model, device);
   const FemRun rebuilt = run_lockstep(model, device, {change_at(250, block)});
   ASSERT_EQ(rebuilt.taken_ticks, std::vector<std::int64_t>{259});  // the FEM step after 250
@@ -65,7 +65,7 @@ TEST(FemRemesh, AfterARebuildOntoAnotherMeshTheRunIsOneOnThatMeshFromTheStart) {
   const FemOptions o = options(FemInteraction::kGrab, 10);
   const FemModel coarse(block(), o);
   const FemModel fine(fine_block(), o);
-  const TraceDevice device = grab_path();
+  TraceDevice device = grab_path();
   const FemRun on_fine = run_lockstep(fine, device);
   const FemRun on_coarse = run_lockstep(coarse, device);
   const FemRun switched = run_lockstep(coarse, device, {change_at(250, fine_block)});
@@ -102,7 +102,7 @@ TEST(FemRemesh, ACorotationalRunCarriesItsShapeAndLoadsOverARebuild) {
   FemOptions o = options(FemInteraction::kGrab, 10);
   o.solver = FemSolver::kCorotational;
   const FemModel model(block(), o);
-  const TraceDevice device = grab_path();
+  TraceDevice device = grab_path();
   const FemRun plain = run_lockstep(model, device);
   const FemRun rebuilt = run_lockstep(model, device, {change_at(250, block)});
   const double peak = peak_n(plain.force_n);
@@ -135,7 +135,7 @@ TEST(FemRealtime, ARebuildRunsBesideTheFemThreadWhichStepsTheOldMeshUntilItIsDon
   // small mesh, at nice 10) has 2.6 s to finish: enough under ThreadSanitizer on a busy
   // machine (1.4 s was not, with a compile beside it).
   const Vec3d start(6.0, 6.0, kBlockTopMm);
-  const TraceDevice device = device_along(3000, [start](std::size_t k) {
+  TraceDevice device = device_along(3000, [start](std::size_t k) {
     return Vec3d(start + Vec3d(0.0, 0.0, std::min(1.0, static_cast<double>(k) / 200.0)));
   });
   auto handoff = std::make_unique<FemHandoff>();

@@ -111,7 +111,7 @@ void expect_spring_rows(const std::string& path, const TraceDevice& device, std:
 }
 
 TEST(ModelStages, LockstepRunsAnyModelInTheDocumentedOrder) {
-  const TraceDevice device = press_through_plane();
+  TraceDevice device = press_through_plane();
   const std::size_t nan_tick = 150;
   PlaneSpring spring(nan_tick);
   spring.record_calls = true;
@@ -153,7 +153,7 @@ TEST(ModelStages, LockstepRunsAnyModelInTheDocumentedOrder) {
 }
 
 TEST(ModelStages, RealtimeRunsAnyModelWithItsBackgroundThread) {
-  const TraceDevice device = press_through_plane();
+  TraceDevice device = press_through_plane();
   const std::size_t nan_tick = 150;
   PlaneSpring spring(nan_tick);
   Recorder background(nullptr);

@@ -43,7 +43,7 @@ struct RealtimeRun {
   std::uint64_t force_thread_allocations = ~0ull;
 };
 
-RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& session_path,
+RealtimeRun sculpt_realtime(TraceDevice device, const std::string& session_path,
                             RealtimeOptions realtime = {}) {
   fixtures::ClayScene scene;
   RealtimeRun run;
@@ -62,7 +62,7 @@ RealtimeRun sculpt_realtime(const TraceDevice& device, const std::string& sessio
 
 TEST(Realtime, SculptingWithTwoThreadsConservesMassAndRecordsEveryTick) {
   const std::string dir = testing::scratch_dir();
-  const TraceDevice device = clay_device(1000.0, 20.0);
+  TraceDevice device = clay_device(1000.0, 20.0);
   const RealtimeRun run = sculpt_realtime(device, dir + "/rt.h5");
   EXPECT_EQ(run.summary.ticks, device.tick_count());
   EXPECT_GT(run.sculpt.plastic_events, 100u);
@@ -147,7 +147,7 @@ TEST(Realtime, AStallSendsTheLateForceThenRampsItDownAndBackWithoutAStep) {
   engine::ToolForceOptions elastic = fixtures::clay_tool();
   elastic.plastic.enabled = false;
   const engine::ToolForceModel model(field, elastic);
-  const TraceDevice device = press_and_hold_device(1.4);
+  TraceDevice device = press_and_hold_device(1.4);
   const DeviceLimits limits;  // 10 N, ramp 0.1 s: 100 ticks at 1 kHz
   const std::size_t stall_tick = 600, steps = 100;
   RealtimeOptions options;
@@ -221,7 +221,7 @@ TEST(Realtime, AnIdleRelaxationThreadSleeps) {
   make.travel_mm = 1.0;
   make.speed_mm_s = 10.0;
   make.hold_s = 2.0;
-  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  TraceDevice device(resample(make_trace(make)), DeviceTransform{});
   ASSERT_GE(device.tick_count(), 2000u);
   SculptSummary sculpted;
   TimingSummary timing;
@@ -248,7 +248,7 @@ TEST(Realtime, ASleepingRelaxationThreadWakesOnTheFirstSurfaceChange) {
   make.travel_mm = 14.0;
   make.speed_mm_s = 20.0;
   make.hold_s = 0.3;
-  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  TraceDevice device(resample(make_trace(make)), DeviceTransform{});
   const RealtimeRun run = sculpt_realtime(device, path);
   ASSERT_GT(run.sculpt.plastic_events, 0u);
   EXPECT_EQ(run.sculpt.final_mass_units, run.sculpt.initial_mass_units);
@@ -279,7 +279,7 @@ TEST(Realtime, ASleepingRelaxationThreadWakesOnTheFirstSurfaceChange) {
 TEST(Realtime, ForceLoopDoesNotAllocateAfterStart) {
   // 10 kHz for 1.3 s: more than 10,000 ticks, with contact, plastic events and the
   // relaxation thread publishing buffers underneath.
-  const TraceDevice device = clay_device(10000.0, 30.0);
+  TraceDevice device = clay_device(10000.0, 30.0);
   ASSERT_GE(device.tick_count(), 10000u);
   const RealtimeRun run = sculpt_realtime(device, testing::scratch_dir() + "/rt.h5");
   EXPECT_GT(run.sculpt.plastic_events, 100u);
@@ -313,8 +313,9 @@ TEST(Realtime, TissueForceLoopDoesNotAllocateAfterStart) {
   options.hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
   options.hooks.loop_finished = [&] { during = allocations_on_this_thread - at_start; };
   TimingSummary timing;
-  const ReplaySummary summary = replay_realtime(model, press_and_hold_device(0.3), DeviceLimits{},
-                                                nullptr, {}, nullptr, nullptr, &timing, options);
+  TraceDevice device = press_and_hold_device(0.3);
+  const ReplaySummary summary = replay_realtime(model, device, DeviceLimits{}, nullptr, {},
+                                                nullptr, nullptr, &timing, options);
   EXPECT_EQ(during, 0u);
   EXPECT_GT(summary.peak_force_n, 0.1);  // it pressed both tissues
 }
@@ -326,7 +327,7 @@ std::uint64_t fem_force_thread_allocations(FemInteraction interaction, double& p
   const FemModel model(fem_fixtures::block(), fem_fixtures::options(interaction, 10));
   // Press: a 4 mm sphere from 0.5 mm above the top face to 1 mm into it; grab: the top
   // centre pulled 1 mm up. 0.6 s at 1 kHz.
-  const TraceDevice device = fem_fixtures::device_along(600, [interaction](std::size_t k) {
+  TraceDevice device = fem_fixtures::device_along(600, [interaction](std::size_t k) {
     const double s = static_cast<double>(k) / 599.0;
     return interaction == FemInteraction::kGrab ? Vec3d(6, 6, 8 + s) : Vec3d(6, 6, 12.5 - 1.5 * s);
   });

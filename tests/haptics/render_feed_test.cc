@@ -81,7 +81,7 @@ TEST(VoxelPatchQueue, OverflowWaitsInTheBacklogAndEveryVoxelArrivesWithItsLatest
 TEST(RenderFeed, RealtimeSculptingWithARenderThreadKeepsTheRenderersCopyExact) {
   fixtures::ClayScene scene;
   const engine::DensityField& field = scene.field;
-  const TraceDevice device = fixtures::clay_stroke_device(1000.0, 20.0);
+  TraceDevice device = fixtures::clay_stroke_device(1000.0, 20.0);
 
   render::GlContext context;
   render::VolumeRenderer renderer(field, render::TransferFunction::from_spec("clay"));
@@ -156,7 +156,7 @@ TEST(RenderFeed, AFailingRenderLoopIsReportedAfterTheRealtimeRunNotACrash) {
   make.shape = TraceShape::kPress;
   make.start_mm = Vec3d(16, 16, 22);
   make.travel_mm = 3.0;
-  const TraceDevice device(resample(make_trace(make), ResampleOptions{}), DeviceTransform{});
+  TraceDevice device(resample(make_trace(make), ResampleOptions{}), DeviceTransform{});
   RealtimeOptions realtime;
   realtime.render_loop = [](RenderFeed&, RenderTiming&) {
     throw InputError("frames/frame_0000.png", "cannot be written");

@@ -70,7 +70,7 @@ TEST(Replay, ForcesAreFiniteClampedAndRampedIn) {
   make.travel_mm = 6.0;  // 5 mm deep: past the clamp
   make.speed_mm_s = 30.0;
   make.hold_s = 0.2;
-  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  TraceDevice device(resample(make_trace(make)), DeviceTransform{});
   const std::string path = testing::scratch_dir() + "/s.h5";
   SessionWriter session(path);
   const ReplaySummary summary = replay_lockstep(model, device, limits, &session);
@@ -109,7 +109,7 @@ TraceDevice press_to_depth(double start_depth_mm, double end_depth_mm, double ho
 TEST(Replay, ToolStartingInContactFeelsTheForceRampInLinearly) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
   const engine::ToolForceModel model(field, small_tool());
-  const TraceDevice device = press_to_depth(1.0, 4.0, 0.2);
+  TraceDevice device = press_to_depth(1.0, 4.0, 0.2);
   const std::string dir = testing::scratch_dir();
   DeviceLimits ramped;
   ramped.ramp_in_s = 0.1;
@@ -149,8 +149,8 @@ TEST(Replay, ToolStartingInContactFeelsTheForceRampInLinearly) {
 TEST(Replay, AWatchdogTripRampsTheForceDownAndBackWithoutAStep) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
   const engine::ToolForceModel model(field, small_tool());
-  const TraceDevice device = press_to_depth(-1.0, 1.0, 1.0);  // pressed and held from 0.1 s
-  const DeviceLimits limits;                                  // 10 N, 0.1 s ramp
+  TraceDevice device = press_to_depth(-1.0, 1.0, 1.0);  // pressed and held from 0.1 s
+  const DeviceLimits limits;                            // 10 N, 0.1 s ramp
   VoxelForceStage stage(model);
   ForceRamp ramp(limits, device.rate_hz());
   EXPECT_DOUBLE_EQ(ramp.step(), 0.01);
@@ -224,10 +224,35 @@ TEST(Replay, ForceRampRisesFallsOnATripAndTurnsBackOnASecondOne) {
   EXPECT_EQ(none.trips(), 1u);
 }
 
+// A silent device or a released dead-man: the factor falls at the ramp's slope, stays at 0
+// while it lasts, and rises again after, never stepping.
+TEST(Replay, ForceRampHeldDownFallsToZeroStaysThereAndRisesAfter) {
+  DeviceLimits limits;
+  limits.ramp_in_s = 0.0025;  // 2.5 ticks at 1 kHz
+  ForceRamp ramp(limits, 1000.0);
+  std::vector<double> f;
+  for (int i = 0; i < 4; ++i) f.push_back(ramp.next());
+  for (int i = 0; i < 5; ++i) f.push_back(ramp.next(true));
+  for (int i = 0; i < 4; ++i) f.push_back(ramp.next());
+  const std::vector<double> expected = {0.0, 0.4, 0.8, 1.0,       // ramp-in
+                                        0.8, 0.4, 0.0, 0.0, 0.0,  // held down: out, stays
+                                        0.4, 0.8, 1.0, 1.0};      // back in
+  ASSERT_EQ(f.size(), expected.size());
+  for (std::size_t i = 0; i < f.size(); ++i) EXPECT_NEAR(f[i], expected[i], 1e-12) << i;
+  EXPECT_EQ(ramp.trips(), 0u);  // not a watchdog trip
+  // Held down from the first tick: never rises.
+  ForceRamp at_start(limits, 1000.0);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(at_start.next(true), 0.0);
+  // No ramp (--ramp-in-s 0): zero at once while held down, 1 after.
+  ForceRamp none(DeviceLimits{10.0, 0.0}, 1000.0);
+  EXPECT_EQ(none.next(true), 0.0);
+  EXPECT_EQ(none.next(), 1.0);
+}
+
 TEST(Replay, RepeatedReplaysAreBitIdentical) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
   const engine::ToolForceModel model(field, small_tool());
-  const TraceDevice device = press_device();
+  TraceDevice device = press_device();
   const std::string dir = testing::scratch_dir();
   for (const char* name : {"/a.h5", "/b.h5"}) {
     SessionWriter session(dir + name);
@@ -254,7 +279,7 @@ TEST(Replay, RepeatedReplaysAreBitIdentical) {
 TEST(Replay, SessionIsWrittenIncrementallyAndOnlyRenamedWhenComplete) {
   const engine::DensityField field = engine::generate_volume("block:dims=64");
   const engine::ToolForceModel model(field, small_tool());
-  const TraceDevice device = press_device();
+  TraceDevice device = press_device();
   const std::string path = testing::scratch_dir() + "/s.h5";
   {
     SessionWriter session(path, 250);
@@ -276,7 +301,7 @@ TEST(Replay, ZeroForceWhileTheTraceNeverTouches) {
   make.shape = TraceShape::kCircle;
   make.start_mm = Vec3d(30, 30, 50);
   make.travel_mm = 2.0;
-  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  TraceDevice device(resample(make_trace(make)), DeviceTransform{});
   const ReplaySummary summary = replay_lockstep(model, device, DeviceLimits{}, nullptr);
   EXPECT_EQ(summary.contact_ticks, 0u);
   EXPECT_EQ(summary.peak_force_n, 0.0);
@@ -316,7 +341,7 @@ SculptRun sculpt_block(const std::string& session_path, engine::DensityField* ou
   make.travel_mm = 6.0;  // tool bottom 2.5 mm below the face (z = 31.5), top 7.5 mm above
   make.speed_mm_s = 10.0;
   make.stroke_length_mm = 24.0;
-  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  TraceDevice device(resample(make_trace(make)), DeviceTransform{});
   SculptRun run;
   SessionWriter session(session_path);
   run.summary = replay_lockstep(model, device, DeviceLimits{}, &session, {}, &context, &run.sculpt);

@@ -50,7 +50,7 @@ SculptTicks sculpt(const TraceMakeOptions& make, double diameter_mm) {
   context.mass = &mass;
   context.mirror = &field;
   context.channel = &channel;
-  const TraceDevice device(resample(make_trace(make)), DeviceTransform{});
+  TraceDevice device(resample(make_trace(make)), DeviceTransform{});
   const std::string path = testing::scratch_dir() + "/sculpt.h5";
   SculptTicks out;
   {

@@ -76,7 +76,7 @@ TEST(UdpSocket, APositionPacketGoesOverLoopbackAndItsAnswerComesBack) {
   const SocketAddress to_hapvox =
       resolve_udp_address({"127.0.0.1", hapvox_side.local_port()}, "test");
   ASSERT_TRUE(device_side.send_to(out.data(), n, to_hapvox));
-  ASSERT_TRUE(hapvox_side.wait_readable(2000));
+  ASSERT_TRUE(hapvox_side.wait_readable(std::chrono::seconds(2)));
   SocketAddress sender;
   const long got = hapvox_side.receive(buffer.data(), buffer.size(), &sender);
   ASSERT_EQ(got, static_cast<long>(kPositionPacketBytes));
@@ -90,7 +90,7 @@ TEST(UdpSocket, APositionPacketGoesOverLoopbackAndItsAnswerComesBack) {
   f.force_n = Vec3d(0.0, 0.0, 1.5);
   const std::size_t m = encode_force(f, out.data());
   ASSERT_TRUE(hapvox_side.send_to(out.data(), m, sender));
-  ASSERT_TRUE(device_side.wait_readable(2000));
+  ASSERT_TRUE(device_side.wait_readable(std::chrono::seconds(2)));
   const long answer = device_side.receive(buffer.data(), buffer.size(), nullptr);
   ASSERT_EQ(answer, static_cast<long>(kForcePacketBytes));
   ForcePacket back;
@@ -107,7 +107,7 @@ TEST(UdpSocket, ADatagramLongerThanTheBufferReportsItsRealLength) {
   encode_position(PositionPacket{}, big.data());
   ASSERT_TRUE(sender.send_to(big.data(), big.size(),
                              resolve_udp_address({"127.0.0.1", receiver.local_port()}, "test")));
-  ASSERT_TRUE(receiver.wait_readable(2000));
+  ASSERT_TRUE(receiver.wait_readable(std::chrono::seconds(2)));
   std::vector<std::uint8_t> buffer(kBridgeMaxDatagramBytes + 1, 0);
   EXPECT_EQ(receiver.receive(buffer.data(), kBridgeMaxDatagramBytes, nullptr), 1500);
   EXPECT_EQ(buffer[kBridgeMaxDatagramBytes - 1], 0xAB);

@@ -1,0 +1,194 @@
+// The device bridge end to end on loopback, in one process: hapvox's realtime loop with a
+// BridgeDevice on one side, the reference client (haptics/bridge_client.h) playing a trace
+// on the other. The forces it gets back are the lockstep replay's; impairments are counted;
+// silence ramps the force out.
+
+#include "haptics/bridge_device.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "engine/volume_io.h"
+#include "haptics/bridge_client.h"
+#include "haptics/realtime.h"
+#include "haptics/voxel_model.h"
+
+namespace hapvox::haptics {
+namespace {
+
+// An 8 mm tool pressing 2 mm into the face of a 48^3 block (z = 23.5 mm) and holding.
+ResampledTrace press_ticks(double hold_s) {
+  TraceMakeOptions make;
+  make.shape = TraceShape::kPressRelease;
+  make.start_mm = Vec3d(24.0, 24.0, 29.0);
+  make.travel_mm = 3.5;
+  make.speed_mm_s = 10.0;
+  make.hold_s = hold_s;
+  return resample(make_trace(make));
+}
+
+engine::ToolForceOptions elastic_tool() {
+  engine::ToolForceOptions options;
+  options.tool.diameter_mm = 8.0;
+  return options;
+}
+
+std::string temp_path(const std::string& name) {
+  return (std::filesystem::path(::testing::TempDir()) / name).string();
+}
+
+struct BridgeRun {
+  BridgeClientResult client;
+  BridgeCounters bridge;
+  ReplaySummary summary;
+  TimingSummary timing;
+};
+
+// hapvox listens on a free loopback port; the client plays `ticks` to it.
+BridgeRun run_bridge(const ResampledTrace& ticks, const BridgeClientOptions& client_options,
+                     const std::string& session_path) {
+  const engine::DensityField field = engine::generate_volume("block:dims=48");
+  const engine::ToolForceModel model(field, elastic_tool());
+  BridgeOptions options;
+  options.end_after_silence_s = 5.0;
+  BridgeDevice device(UdpSocket::bound({"127.0.0.1", 0}, "test"), DeviceTransform{}, options);
+  const SocketAddress to = resolve_udp_address({"127.0.0.1", device.local_port()}, "test");
+  BridgeRun run;
+  std::thread client([&] {
+    UdpSocket socket = UdpSocket::bound({"127.0.0.1", 0}, "client");
+    run.client = play_through_bridge(ticks, socket, to, client_options);
+  });
+  RealtimeOptions realtime;
+  realtime.scheduler.lock_memory = false;
+  SessionWriter session(session_path);
+  run.summary = replay_realtime(model, device, DeviceLimits{}, &session, {}, nullptr, nullptr,
+                                &run.timing, realtime);
+  session.close();
+  client.join();
+  run.bridge = device.counters();
+  return run;
+}
+
+std::vector<Vec3d> lockstep_forces(const ResampledTrace& ticks) {
+  const engine::DensityField field = engine::generate_volume("block:dims=48");
+  const engine::ToolForceModel model(field, elastic_tool());
+  TraceDevice device(ticks, DeviceTransform{});
+  const std::string path = temp_path("bridge_lockstep.h5");
+  SessionWriter session(path);
+  replay_lockstep(model, device, DeviceLimits{}, &session);
+  session.close();
+  const std::vector<double> flat = read_session_column(path, "/force_n");
+  std::vector<Vec3d> forces(flat.size() / 3);
+  for (std::size_t k = 0; k < forces.size(); ++k) {
+    forces[k] = Vec3d(flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]);
+  }
+  return forces;
+}
+
+TEST(BridgeDevice, ForcesThroughTheBridgeAreTheLockstepReplays) {
+  const ResampledTrace ticks = press_ticks(0.3);
+  const std::vector<Vec3d> expected = lockstep_forces(ticks);
+  const BridgeRun run = run_bridge(ticks, {}, temp_path("bridge_clean.h5"));
+  ASSERT_EQ(run.client.answers.size(), ticks.position_mm.size() + 1);
+  // Each position sent at full force (past the ramp-in, no ramp under way) is answered with
+  // the lockstep replay's force for that sample, bit for bit: the same position through the
+  // same force stage. (Ticks may not line up with samples: a position more than half a
+  // period late makes a held tick first. Under load that happens, and a silence ramps the
+  // force: those answers say so in their status and are left out; most must remain.)
+  std::size_t compared = 0, in_contact = 0;
+  for (std::size_t k = 100; k < ticks.position_mm.size(); ++k) {
+    const BridgeAnswer& answer = run.client.answers[k];
+    if (!answer.answered || (answer.status & kForceRamping) != 0) continue;
+    ++compared;
+    in_contact += expected[k].norm() > 0.1 ? 1 : 0;
+    ASSERT_EQ(answer.force_n, expected[k]) << "sequence " << k << ", tick " << answer.tick;
+  }
+  EXPECT_GE(compared, ticks.position_mm.size() / 2);
+  EXPECT_GT(in_contact, 200u);  // the press really pressed
+  EXPECT_TRUE(run.bridge.ended_by_sender);
+  EXPECT_EQ(run.bridge.malformed[0], 0u);
+  EXPECT_EQ(run.bridge.lost, 0u);
+  // Every position was answered, and the device's round trips reached the session's counts.
+  EXPECT_EQ(run.client.answered, run.client.sent - 2);  // the end packet's two repeats
+  EXPECT_GT(run.bridge.round_trip.count(), ticks.position_mm.size() / 2);
+}
+
+TEST(BridgeDevice, LossReorderingAndDuplicatesAreCountedAndTheLoopKeepsItsRate) {
+  const ResampledTrace ticks = press_ticks(1.0);
+  BridgeClientOptions impaired;
+  impaired.drop_fraction = 0.05;
+  impaired.reorder_fraction = 0.01;
+  impaired.duplicate_fraction = 0.005;
+  impaired.seed = 7;
+  const BridgeRun run = run_bridge(ticks, impaired, temp_path("bridge_impaired.h5"));
+  const BridgeClientResult& c = run.client;
+  ASSERT_GT(c.dropped, 50u);
+  ASSERT_GT(c.reordered, 10u);
+  ASSERT_GT(c.duplicated, 3u);
+  // Duplicates are recognised (and the end packet's repeats, if they come before the loop
+  // ends); a reordered packet is late
+  // unless the one it was held behind was dropped; every drop is lost, nothing else is.
+  EXPECT_GE(run.bridge.duplicates, c.duplicated);
+  EXPECT_LE(run.bridge.duplicates, c.duplicated + 2);
+  EXPECT_LE(run.bridge.late, c.reordered);
+  EXPECT_GE(run.bridge.late, c.reordered * 8 / 10);
+  EXPECT_EQ(run.bridge.lost, c.dropped);
+  // A missing position makes a held tick on time: about one tick per trace sample.
+  const double n = static_cast<double>(ticks.position_mm.size());
+  EXPECT_NEAR(static_cast<double>(run.summary.ticks), n, 0.05 * n);
+  EXPECT_GE(run.bridge.held_ticks, c.dropped);
+  EXPECT_NEAR(run.timing.achieved_rate_hz, 1000.0, 50.0);
+}
+
+TEST(BridgeDevice, SilenceRampsTheForceOutWithinItsDocumentedTime) {
+  const ResampledTrace ticks = press_ticks(1.5);
+  BridgeClientOptions pausing;
+  pausing.pause_at_s = 0.8;  // pressed and held
+  pausing.pause_s = 0.4;
+  const std::string path = temp_path("bridge_silence.h5");
+  const BridgeRun run = run_bridge(ticks, pausing, path);
+  EXPECT_GE(run.bridge.silences, 1u);
+  const std::vector<double> force = read_session_column(path, "/force_n");
+  const std::vector<double> scale = read_session_column(path, "/force_scale");
+  const std::vector<double> holding = read_session_column(path, "/holding");
+  const std::vector<double> start_ns = read_session_column(path, "/timing/start_ns");
+  // The last fresh position before the pause, and the ticks after it.
+  std::size_t last_fresh = 0;
+  for (std::size_t k = 0; k < holding.size() && start_ns[k] < 0.9e9; ++k) {
+    if (holding[k] == 0.0) last_fresh = k;
+  }
+  ASSERT_GT(last_fresh, 500u);
+  const double pressed_n = std::abs(force[3 * last_fresh + 2]);
+  ASSERT_GT(pressed_n, 0.5);
+  // Zero within silence_timeout_s + ramp_in_s (0.01 + 0.1 s) of the last position (the
+  // ramp counts ticks: 10 ms of slack for a loop slowed by a loaded machine or a
+  // sanitizer); never a step on the way down.
+  const double limit_ns = start_ns[last_fresh] + (0.01 + 0.1 + 0.01) * 1e9;
+  bool reached_zero = false;
+  double max_step = 0.0;
+  std::size_t k = last_fresh + 1;
+  for (; k < holding.size() && holding[k] != 0.0; ++k) {
+    max_step = std::max(max_step, std::abs(force[3 * k + 2] - force[3 * (k - 1) + 2]));
+    if (start_ns[k] >= limit_ns) {
+      EXPECT_EQ(scale[k], 0.0) << "tick " << k;
+      EXPECT_EQ(force[3 * k + 2], 0.0) << "tick " << k;
+      reached_zero = true;
+    }
+  }
+  EXPECT_TRUE(reached_zero);
+  EXPECT_LE(max_step, 10.0 / 100.0 + 1e-9);  // max_force_n / (ramp_in_s * rate)
+  // It comes back when positions do: full force again a ramp-in (100 ticks) later, still
+  // pressed (the trace holds until 1.85 s).
+  ASSERT_LT(k + 150, scale.size());
+  EXPECT_EQ(scale[k], 0.01);  // the first position after the silence: one step up
+  EXPECT_EQ(scale[k + 150], 1.0);
+  EXPECT_GT(std::abs(force[3 * (k + 150) + 2]), 0.5);
+}
+
+}  // namespace
+}  // namespace hapvox::haptics

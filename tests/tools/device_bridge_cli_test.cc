@@ -1,0 +1,161 @@
+// hapvox replay --device udp:HOST:PORT with hapvox device-sim, as two processes on loopback:
+// the forces the device-sim gets back are those of a direct replay of its trace; bad flags
+// are one line each.
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "engine/errors.h"
+#include "haptics/session.h"
+#include "haptics/udp_socket.h"
+#include "test_data.h"
+
+namespace hapvox {
+namespace {
+
+using testing::run_hapvox;
+using testing::scratch_dir;
+
+// A loopback port free now (the system's pick), for a process to listen on next.
+std::uint16_t free_port() {
+  return haptics::UdpSocket::bound({"127.0.0.1", 0}, "test").local_port();
+}
+
+// True once something listens on `port` (binding it fails).
+bool listening(std::uint16_t port) {
+  try {
+    haptics::UdpSocket::bound({"127.0.0.1", port}, "test");
+    return false;
+  } catch (const InputError&) {
+    return true;
+  }
+}
+
+struct Answer {
+  bool answered = false;
+  double force[3] = {0, 0, 0};
+  unsigned status = 0;
+  unsigned long long tick = 0;
+};
+
+std::vector<Answer> read_answers(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "sequence,answered,fx,fy,fz,status,tick,round_trip_ns");
+  std::vector<Answer> answers;
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::string field;
+    std::vector<std::string> v;
+    while (std::getline(fields, field, ',')) v.push_back(field);
+    Answer a;
+    a.answered = v.at(1) == "1";
+    for (int i = 0; i < 3; ++i) a.force[i] = std::strtod(v.at(2 + i).c_str(), nullptr);
+    a.status = static_cast<unsigned>(std::stoul(v.at(5)));
+    a.tick = std::stoull(v.at(6));
+    answers.push_back(a);
+  }
+  return answers;
+}
+
+TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
+  const std::string dir = scratch_dir();
+  ASSERT_EQ(run_hapvox("trace make press-release -o " + dir +
+                       "/press.csv --start-mm 24,24,29 --travel-mm 3.5 --hold-s 0.3")
+                .exit_code,
+            0);
+  const std::string tool = " --volume block:dims=48 --tool-diameter-mm 8 -q";
+  ASSERT_EQ(
+      run_hapvox("replay " + dir + "/press.csv" + tool + " -o " + dir + "/direct.h5").exit_code, 0);
+  const std::uint16_t port = free_port();
+  const std::string device = "udp:127.0.0.1:" + std::to_string(port);
+  testing::CommandResult live;
+  std::thread hapvox([&] {
+    live = run_hapvox("replay --device " + device + tool + " --realtime --no-mlock -o " + dir +
+                      "/live.h5");
+  });
+  for (int i = 0; i < 500 && !listening(port); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const testing::CommandResult sim = run_hapvox("device-sim " + dir + "/press.csv --to " + device +
+                                                " --forces-out " + dir + "/forces.csv");
+  hapvox.join();
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  ASSERT_EQ(live.exit_code, 0) << live.err;
+  EXPECT_NE(sim.out.find("round trip       p50 "), std::string::npos) << sim.out;
+  EXPECT_NE(live.out.find("; ended by the sender"), std::string::npos) << live.out;
+
+  // Compared by sequence number: a position sent at full force (past the 100-tick ramp-in,
+  // no ramp under way: status bit 0 clear) is answered with the force a direct replay
+  // computed for that sample, to the last bit (through the CSV's 17 digits).
+  const std::vector<double> direct = haptics::read_session_column(dir + "/direct.h5", "/force_n");
+  const std::vector<Answer> answers = read_answers(dir + "/forces.csv");
+  ASSERT_EQ(answers.size(), direct.size() / 3 + 1);  // and the end packet's
+  std::size_t compared = 0;
+  for (std::size_t k = 100; k + 1 < answers.size(); ++k) {
+    if (!answers[k].answered || (answers[k].status & 1u) != 0) continue;
+    ++compared;
+    for (int a = 0; a < 3; ++a) ASSERT_EQ(answers[k].force[a], direct[3 * k + a]) << k;
+  }
+  EXPECT_GE(compared, answers.size() / 2);
+  // The live session records what came: its rows name the packet each tick used.
+  const std::vector<double> sequence =
+      haptics::read_session_column(dir + "/live.h5", "/device_sequence");
+  ASSERT_FALSE(sequence.empty());
+  EXPECT_EQ(sequence.front(), 0.0);
+  const haptics::SessionInfo info = haptics::read_session_info(dir + "/live.h5");
+  EXPECT_TRUE(info.complete);
+  bool has_round_trip = false;
+  for (const auto& [name, value] : info.attributes) {
+    if (name == "bridge_round_trip_p99_us") has_round_trip = std::stod(value) > 0.0;
+    if (name == "bridge_lost") {
+      EXPECT_EQ(value, "0");
+    }
+  }
+  EXPECT_TRUE(has_round_trip);
+}
+
+TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
+  const std::string dir = scratch_dir();
+  ASSERT_EQ(run_hapvox("trace make press -o " + dir + "/t.csv").exit_code, 0);
+  const std::string out = " -o " + dir + "/s.h5";
+  auto expect_error = [&](const std::string& args, const std::string& expected) {
+    const testing::CommandResult r = run_hapvox(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(r.err, "hapvox: error: " + expected + "\n") << args;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/s.h5")) << args;
+  };
+  const std::string volume = " --volume block:dims=48";
+  expect_error("replay --device udp:127.0.0.1:47001" + volume + out,
+               "--device: needs --realtime (a live device has no lockstep)");
+  expect_error("replay " + dir + "/t.csv --device udp:127.0.0.1:47001 --realtime" + volume + out,
+               "--device: takes the place of a trace file: give one or the other");
+  expect_error("replay --device udp:127.0.0.1:47001 --realtime --fit" + volume + out,
+               "--fit: needs a trace file (a live device's path is not known ahead)");
+  expect_error("replay --device udp:127.0.0.1:47001 --realtime --model fem" + volume + out,
+               "--device: needs --model voxel (the proxy mesh is refined along a trace)");
+  expect_error("replay --realtime" + volume + out,
+               "trace: a trace file is needed (or --device udp:HOST:PORT)");
+  expect_error(
+      "replay --device udp:127.0.0.1:47001 --realtime --silence-timeout-s 0" + volume + out,
+      "--silence-timeout-s: must lie in (0, 1] s");
+  // A port already in use.
+  const haptics::UdpSocket taken = haptics::UdpSocket::bound({"127.0.0.1", 0}, "test");
+  const std::string port = std::to_string(taken.local_port());
+  expect_error("replay --device udp:127.0.0.1:" + port + " --realtime" + volume + out,
+               "--device: cannot listen on 127.0.0.1:" + port + ": Address already in use");
+  expect_error("device-sim " + dir + "/t.csv --to udp:127.0.0.1:47001 --drop 0.9",
+               "--drop: must lie in [0, 0.5]");
+}
+
+}  // namespace
+}  // namespace hapvox

@@ -1,0 +1,115 @@
+// `hapvox replay --device udp:HOST:PORT`: the live device behind the bridge
+// (haptics/bridge_device.h) in place of a trace, its flags, counters and report.
+
+#include <csignal>
+#include <cstdio>
+
+#include "engine/errors.h"
+#include "tools/replay_command.h"
+
+namespace hapvox::cli {
+namespace {
+
+std::atomic<bool> g_stop_requested{false};
+
+extern "C" void request_stop(int) { g_stop_requested.store(true); }
+
+}  // namespace
+
+void check_bridge_flags(const ReplayFlags& f) {
+  if (!f.trace_path.empty()) {
+    throw InputError("--device", "takes the place of a trace file: give one or the other");
+  }
+  if (!f.realtime) throw InputError("--device", "needs --realtime (a live device has no lockstep)");
+  if (f.model != "voxel") {
+    throw InputError("--device", "needs --model voxel (the proxy mesh is refined along a trace)");
+  }
+  if (f.transform.fit) {
+    throw InputError("--fit", "needs a trace file (a live device's path is not known ahead)");
+  }
+  if (!(f.silence_timeout_s > 0.0 && f.silence_timeout_s <= 1.0)) {
+    throw InputError("--silence-timeout-s", "must lie in (0, 1] s");
+  }
+  if (!(f.end_after_silence_s >= 0.0) || !std::isfinite(f.end_after_silence_s)) {
+    throw InputError("--end-after-silence-s", "must be zero (never) or positive");
+  }
+  if (!(f.trace.rate_hz >= 100.0 && f.trace.rate_hz <= 10e3)) {
+    throw InputError("--rate-hz", "a live device's loop runs at 100 to 10000 Hz");
+  }
+  haptics::parse_udp_address(f.device);  // its mistakes before anything is read or made
+}
+
+std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
+    const ReplayFlags& f, const haptics::DeviceTransform& transform) {
+  haptics::BridgeOptions options;
+  options.rate_hz = f.trace.rate_hz;
+  options.silence_timeout_s = f.silence_timeout_s;
+  options.end_after_silence_s = f.end_after_silence_s;
+  options.stop = &g_stop_requested;
+  haptics::UdpSocket socket =
+      haptics::UdpSocket::bound(haptics::parse_udp_address(f.device), "--device");
+  // Ctrl-C or a kill ends the session after the tick under way; the file keeps every tick.
+  std::signal(SIGINT, request_stop);
+  std::signal(SIGTERM, request_stop);
+  return std::make_unique<haptics::BridgeDevice>(std::move(socket), transform, options);
+}
+
+const std::atomic<bool>* stop_request() { return &g_stop_requested; }
+
+void write_bridge_attributes(haptics::SessionWriter& session, const haptics::BridgeDevice& device) {
+  const haptics::BridgeCounters& c = device.counters();
+  auto count = [&](const char* name, std::uint64_t value) {
+    session.set_attribute(std::string("bridge_") + name, static_cast<std::int64_t>(value));
+  };
+  count("datagrams", c.datagrams);
+  count("fresh", c.fresh);
+  count("late", c.late);
+  count("duplicates", c.duplicates);
+  count("lost", c.lost);
+  std::uint64_t malformed = 0;
+  for (int e = 1; e < haptics::kPacketErrorCount; ++e) {
+    malformed += c.malformed[e];
+    std::string name = haptics::packet_error_name(static_cast<haptics::PacketError>(e));
+    for (char& ch : name) {
+      if (ch == ' ') ch = '_';
+    }
+    count(("malformed_" + name).c_str(), c.malformed[e]);
+  }
+  count("malformed", malformed);
+  count("held_ticks", c.held_ticks);
+  count("silent_ticks", c.silent_ticks);
+  count("silences", c.silences);
+  count("released_ticks", c.released_ticks);
+  count("answers", c.answers);
+  count("send_failures", c.send_failures);
+  count("ended_by_sender", c.ended_by_sender ? 1 : 0);
+  const haptics::DurationStats trip = haptics::duration_stats(c.round_trip);
+  count("round_trips", trip.count);
+  session.set_attribute("bridge_round_trip_p50_us", trip.p50_us);
+  session.set_attribute("bridge_round_trip_p99_us", trip.p99_us);
+  session.set_attribute("bridge_round_trip_max_us", trip.max_us);
+  const haptics::DurationStats answer = haptics::duration_stats(c.answer);
+  session.set_attribute("bridge_answer_p50_us", answer.p50_us);
+  session.set_attribute("bridge_answer_p99_us", answer.p99_us);
+  session.set_attribute("bridge_answer_max_us", answer.max_us);
+  session.set_attribute("silence_timeout_s", device.silence_timeout_s());
+}
+
+void print_bridge_lines(const haptics::BridgeDevice& device) {
+  const haptics::BridgeCounters& c = device.counters();
+  std::uint64_t malformed = 0;
+  for (int e = 1; e < haptics::kPacketErrorCount; ++e) malformed += c.malformed[e];
+  std::printf(
+      "  bridge           %llu datagrams: %llu fresh, %llu late, %llu duplicates, %llu lost, "
+      "%llu malformed; %llu ticks held, %llu silent (%llu silences)%s\n",
+      static_cast<unsigned long long>(c.datagrams), static_cast<unsigned long long>(c.fresh),
+      static_cast<unsigned long long>(c.late), static_cast<unsigned long long>(c.duplicates),
+      static_cast<unsigned long long>(c.lost), static_cast<unsigned long long>(malformed),
+      static_cast<unsigned long long>(c.held_ticks),
+      static_cast<unsigned long long>(c.silent_ticks), static_cast<unsigned long long>(c.silences),
+      c.ended_by_sender ? "; ended by the sender" : "");
+  print_stats_line("round trip", haptics::duration_stats(c.round_trip));
+  print_stats_line("answer", haptics::duration_stats(c.answer));
+}
+
+}  // namespace hapvox::cli
