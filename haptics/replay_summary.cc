@@ -39,8 +39,7 @@ DurationStats duration_stats(const LatencyHistogram& histogram) {
   return stats;
 }
 
-SummaryBuilder::SummaryBuilder(const Device& device)
-    : rate_hz_(device.rate_hz()), expected_ticks_(device.tick_count()) {
+SummaryBuilder::SummaryBuilder(const Device& device) : rate_hz_(device.rate_hz()) {
   summary_.trace_gaps = device.gap_count();
   summary_.trace_held_s = device.held_time_s();
 }
@@ -65,7 +64,6 @@ void SummaryBuilder::add(const TickRecord& row, bool nonfinite) {
 
 ReplaySummary SummaryBuilder::finish(std::uint64_t stage_nonfinite_forces,
                                      std::uint64_t contact_onsets) {
-  if (expected_ticks_ != Device::kUnbounded) HAPVOX_CHECK_EQ(summary_.ticks, expected_ticks_);
   ReplaySummary summary = summary_;
   // Ticks times the period, as the lockstep loop always computed it (bit for bit).
   summary.contact_time_s = static_cast<double>(summary.contact_ticks) * (1.0 / rate_hz_);

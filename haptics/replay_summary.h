@@ -55,8 +55,9 @@ DurationStats duration_stats(const LatencyHistogram& histogram);
 /// Accumulates a replay's rows, in tick order, into its summary.
 class SummaryBuilder {
  public:
-  /// Takes the rate, the run's length (when known, checked by finish()) and the trace's
-  /// gaps from `device`. Its memory is fixed: a run of any length can be summarised.
+  /// Takes the rate and the trace's gaps from `device`; counts the ticks it is given (a
+  /// loop may stop early: a stop request, a live device's end). Its memory is fixed: a run
+  /// of any length can be summarised.
   explicit SummaryBuilder(const Device& device);
 
   /// One tick's row, as sent. `nonfinite`: the model's force was not finite (sent as 0).
@@ -68,7 +69,6 @@ class SummaryBuilder {
  private:
   ReplaySummary summary_;
   double rate_hz_;
-  std::size_t expected_ticks_;
   double first_time_s_ = 0.0;
   LatencyHistogram compute_;
 };

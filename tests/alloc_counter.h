@@ -13,13 +13,12 @@
 #include <cstdlib>
 #include <new>
 
+#include "alloc_count.h"
+
 // GCC cannot see that these replacements pair malloc with free.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 
 namespace hapvox::testing {
-
-/// Allocations made on the calling thread since it started.
-inline thread_local std::uint64_t allocations_on_this_thread = 0;
 
 namespace alloc_counter_detail {
 inline void* counted_alloc(std::size_t size, std::size_t align) {

@@ -23,6 +23,9 @@ namespace {
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   const bool live = !f.device.empty();
   if (live) check_bridge_flags(f);
+  if (!f.trace_out.empty() && !live) {
+    throw InputError("--trace-out", "needs --device (a trace replay has its trace already)");
+  }
   if (f.trace_path.empty() && !live) {
     throw InputError("trace", "a trace file is needed (or --device udp:HOST:PORT)");
   }
@@ -57,6 +60,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   }
   const std::string& prefix = f.sculpt_out;  // writes PREFIX.vdb and PREFIX.nrrd
   check_outputs_spare_inputs({{f.output, "--output", ""},
+                              {f.trace_out, "--trace-out", ""},
                               {prefix.empty() ? "" : prefix + ".vdb", "--sculpt-out", ""},
                               {prefix.empty() ? "" : prefix + ".nrrd", "--sculpt-out", ""},
                               {f.render_dir, "--render-dir", kFrameFileNames}},
@@ -206,6 +210,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                           static_cast<std::int64_t>(sculpted.queue_overflows));
   }
   session.close();
+  if (!f.trace_out.empty()) write_recorded_trace(f.output, f.trace_out);
   if (!f.sculpt_out.empty()) {
     const engine::DensityField sculpted_field = mass->to_density_field();
     engine::write_vdb(sculpted_field, f.sculpt_out + ".vdb");
@@ -253,6 +258,9 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
                   "udp:HOST:PORT: take the tool from a live device program through the bridge "
                   "(docs/formats.md: Device bridge packets; hapvox device-sim is its reference "
                   "client) instead of a trace; needs --realtime");
+  cmd->add_option("--trace-out", flags->trace_out,
+                  "--device: write the positions the session's ticks used as a CSV trace "
+                  "(replaying it in lockstep steps the model through them again)");
   cmd->add_option("--silence-timeout-s", flags->silence_timeout_s,
                   "--device: no position for this long and the force ramps out")
       ->capture_default_str();

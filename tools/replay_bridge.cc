@@ -37,6 +37,25 @@ void check_bridge_flags(const ReplayFlags& f) {
     throw InputError("--rate-hz", "a live device's loop runs at 100 to 10000 Hz");
   }
   haptics::parse_udp_address(f.device);  // its mistakes before anything is read or made
+  if (!f.trace_out.empty()) check_output_path(f.trace_out, "--trace-out");
+}
+
+void write_recorded_trace(const std::string& session_path, const std::string& trace_path) {
+  const std::vector<double> time_s = haptics::read_session_column(session_path, "/time_s");
+  const std::vector<double> position =
+      haptics::read_session_column(session_path, "/device_position_mm");
+  haptics::Trace trace;
+  trace.time_s = time_s;
+  trace.position_mm.reserve(time_s.size());
+  for (std::size_t k = 0; k < time_s.size(); ++k) {
+    trace.position_mm.emplace_back(position[3 * k], position[3 * k + 1], position[3 * k + 2]);
+  }
+  if (trace.time_s.size() < 2) {
+    std::fprintf(stderr, "hapvox: warning: --trace-out: %zu ticks, no trace written\n",
+                 trace.time_s.size());
+    return;
+  }
+  haptics::write_csv_trace(trace, trace_path);
 }
 
 std::unique_ptr<haptics::BridgeDevice> make_bridge_device(

@@ -19,7 +19,8 @@ namespace hapvox::cli {
 
 struct ReplayFlags {
   std::string trace_path;
-  std::string device;  // --device udp:HOST:PORT: a live device through the bridge
+  std::string device;     // --device udp:HOST:PORT: a live device through the bridge
+  std::string trace_out;  // --trace-out T.csv: the positions a live session's ticks used
   double silence_timeout_s = 0.01;
   double end_after_silence_s = 5.0;
   std::string volume;
@@ -88,6 +89,9 @@ std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
 const std::atomic<bool>* stop_request();
 void write_bridge_attributes(haptics::SessionWriter& session, const haptics::BridgeDevice& device);
 void print_bridge_lines(const haptics::BridgeDevice& device);
+/// The trace a live session's ticks used (t = tick / rate, the device-frame positions), as
+/// CSV: `hapvox replay` of it in lockstep steps the model through the same positions.
+void write_recorded_trace(const std::string& session_path, const std::string& trace_path);
 
 /// The flags every model checks alike (limits, rates, scheduling); InputError naming the flag.
 void check_loop_flags(const ReplayFlags& f);

@@ -170,6 +170,7 @@ void write_summary_attributes(haptics::SessionWriter& session, const ReplayFlags
     session.set_attribute("summary_watchdog_ramped_ticks",
                           static_cast<std::int64_t>(timing.watchdog_ramped_ticks));
     session.set_attribute("summary_stalled_ticks", static_cast<std::int64_t>(timing.stalled_ticks));
+    session.set_attribute("summary_rows_dropped", static_cast<std::int64_t>(timing.rows_dropped));
     session.set_attribute("summary_achieved_rate_hz", timing.achieved_rate_hz);
     session.set_attribute("summary_wall_time_s", timing.wall_time_s);
     session.set_attribute("summary_force_cpu_s", timing.force_cpu_s);
@@ -212,6 +213,10 @@ void print_run_report(const ReplayFlags& f, const haptics::ReplaySummary& s,
         ">1 period late; machine steal %.3f s\n",
         timing.force_cpu_s, timing.wall_time_s, timing.force_involuntary_switches,
         timing.stalled_ticks, timing.machine_steal_s);
+    if (timing.rows_dropped > 0) {
+      std::printf("  session rows     %llu dropped: the session writer fell 8 s behind\n",
+                  static_cast<unsigned long long>(timing.rows_dropped));
+    }
     std::printf("  scheduler        timer slack %s; memory lock %s; policy %s; affinity %s\n",
                 timing.scheduler.timer_slack.c_str(), timing.scheduler.memory_lock.c_str(),
                 timing.scheduler.policy.c_str(), timing.scheduler.affinity.c_str());

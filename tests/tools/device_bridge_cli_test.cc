@@ -81,7 +81,7 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
   testing::CommandResult live;
   std::thread hapvox([&] {
     live = run_hapvox("replay --device " + device + tool + " --realtime --no-mlock -o " + dir +
-                      "/live.h5");
+                      "/live.h5 --trace-out " + dir + "/live.csv");
   });
   for (int i = 0; i < 500 && !listening(port); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -122,6 +122,28 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
     }
   }
   EXPECT_TRUE(has_round_trip);
+
+  // The trace the live session recorded, replayed in lockstep, steps the model through the
+  // same positions tick for tick: the same forces, bit for bit, on every tick sent with the
+  // same ramp factor (a realtime tick that tripped the watchdog, or fell silent, was ramped
+  // where the lockstep replay is not: those are the ticks that may differ).
+  ASSERT_EQ(run_hapvox("replay " + dir + "/live.csv" + tool + " -o " + dir + "/again.h5").exit_code,
+            0);
+  const std::vector<double> live_force = haptics::read_session_column(dir + "/live.h5", "/force_n");
+  const std::vector<double> again_force =
+      haptics::read_session_column(dir + "/again.h5", "/force_n");
+  const std::vector<double> live_scale =
+      haptics::read_session_column(dir + "/live.h5", "/force_scale");
+  const std::vector<double> again_scale =
+      haptics::read_session_column(dir + "/again.h5", "/force_scale");
+  ASSERT_EQ(live_force.size(), again_force.size());
+  std::size_t same_ramp = 0;
+  for (std::size_t k = 0; k < live_scale.size(); ++k) {
+    if (live_scale[k] != again_scale[k]) continue;
+    ++same_ramp;
+    for (int a = 0; a < 3; ++a) ASSERT_EQ(live_force[3 * k + a], again_force[3 * k + a]) << k;
+  }
+  EXPECT_GE(same_ramp, live_scale.size() / 2);
 }
 
 TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
@@ -153,6 +175,8 @@ TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
   const std::string port = std::to_string(taken.local_port());
   expect_error("replay --device udp:127.0.0.1:" + port + " --realtime" + volume + out,
                "--device: cannot listen on 127.0.0.1:" + port + ": Address already in use");
+  expect_error("replay " + dir + "/t.csv --trace-out " + dir + "/u.csv" + volume + out,
+               "--trace-out: needs --device (a trace replay has its trace already)");
   expect_error("device-sim " + dir + "/t.csv --to udp:127.0.0.1:47001 --drop 0.9",
                "--drop: must lie in [0, 0.5]");
 }
