@@ -314,8 +314,8 @@ TEST(Realtime, TissueForceLoopDoesNotAllocateAfterStart) {
   options.hooks.loop_finished = [&] { during = allocations_on_this_thread - at_start; };
   TimingSummary timing;
   TraceDevice device = press_and_hold_device(0.3);
-  const ReplaySummary summary = replay_realtime(model, device, DeviceLimits{}, nullptr, {},
-                                                nullptr, nullptr, &timing, options);
+  const ReplaySummary summary = replay_realtime(model, device, DeviceLimits{}, nullptr, {}, nullptr,
+                                                nullptr, &timing, options);
   EXPECT_EQ(during, 0u);
   EXPECT_GT(summary.peak_force_n, 0.1);  // it pressed both tissues
 }
