@@ -102,9 +102,10 @@ MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
   }
   grid_->tree().voxelizeActiveTiles();
   accessor_.clear();
+  grid_units_ = summed_mass_units();  // from here on every change goes through set()
 }
 
-std::int64_t MassGrid::total_mass_units() const {
+std::int64_t MassGrid::summed_mass_units() const {
   std::int64_t sum = 0;
   for (auto it = grid_->cbeginValueOn(); it; ++it) {
     sum += static_cast<std::int64_t>(*it) * static_cast<std::int64_t>(it.getVoxelCount());
@@ -114,6 +115,7 @@ std::int64_t MassGrid::total_mass_units() const {
 
 void MassGrid::set(const openvdb::Coord& ijk, std::int32_t units) {
   HAPVOX_CHECK_GE(units, 0);
+  grid_units_ += std::int64_t{units} - accessor_.getValue(ijk);
   if (units == 0) {
     accessor_.setValueOff(ijk, 0);
   } else {

@@ -89,8 +89,12 @@ class MassGrid {
   /// Fixed-point copy of `field`: q = round(rho * kNormalDensityUnits).
   MassGrid(const DensityField& field, const RelaxOptions& options = {});
 
-  /// Exact total mass in fixed-point units: the grid plus the pool still flowing.
-  std::int64_t total_mass_units() const;
+  /// Exact total mass in fixed-point units: the grid plus the pool still flowing. O(1): the
+  /// grid's sum is kept up to date by every change (set()), in integers.
+  std::int64_t total_mass_units() const { return grid_units_ + flowing_units(); }
+  /// The same, summed over every active voxel now (a pass over the grid): what the tests
+  /// and a run's first and last rows check total_mass_units() against.
+  std::int64_t summed_mass_units() const;
 
   /// Paper step 1. Returns the number of voxels emptied.
   std::size_t apply_deletion(const SurfaceChange& change);
@@ -179,6 +183,7 @@ class MassGrid {
   // Flow to room: excess waiting for the next search and the voxels it came from; the
   // search in flight (its pool, first source, queue with its head, visited set), kept
   // between calls so it can resume and a warmed-up grid does not allocate for it.
+  std::int64_t grid_units_ = 0;  // the sum over the grid, kept by set()
   std::int64_t pool_units_ = 0;
   std::vector<openvdb::Coord> pool_sources_;
   bool flow_active_ = false;

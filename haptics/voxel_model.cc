@@ -116,7 +116,7 @@ void RelaxationStage::begin() {
   relaxed_seen_ = mass_.work().relaxed_voxels;
   deleted_.store(deleted_seen_, std::memory_order_relaxed);
   relaxed_.store(relaxed_seen_, std::memory_order_relaxed);
-  initial_mass_units_ = mass_.total_mass_units();
+  initial_mass_units_ = mass_.summed_mass_units();
   mass_units_ = initial_mass_units_;
   published_mass_units_.store(initial_mass_units_, std::memory_order_relaxed);
 }
@@ -186,8 +186,8 @@ void RelaxationStage::run_realtime(const std::atomic<bool>& force_done, Clock::t
     }
     deleted_.store(mass_.work().deleted_voxels, std::memory_order_relaxed);
     relaxed_.store(mass_.work().relaxed_voxels, std::memory_order_relaxed);
-    // The exact mass (a pass over the whole grid) is measured every ~50 ms while the grid
-    // changes, and once more when it stops: never while nothing moves.
+    // The exact mass (kept by the mass grid) is published every ~50 ms while the grid
+    // changes, and once more when it stops.
     const bool idle =
         did == 0 && !mass_.has_changes() && (feed == nullptr || feed->voxels.drained_backlog());
     if (mass_stale && (idle || Clock::now() - last_mass > std::chrono::milliseconds(50))) {
@@ -244,7 +244,7 @@ SculptSummary RelaxationStage::finish(const LockstepRender* render, RenderFeed* 
   summary.deleted_voxels = mass_.work().deleted_voxels;
   summary.relaxed_voxels = mass_.work().relaxed_voxels;
   summary.initial_mass_units = initial_mass_units_;
-  summary.final_mass_units = mass_.total_mass_units();
+  summary.final_mass_units = mass_.summed_mass_units();  // counted anew: the real check
   summary.settled = mass_.settled();
   return summary;
 }
