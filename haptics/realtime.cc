@@ -1,6 +1,7 @@
 #include "haptics/realtime.h"
 
 #include <pthread.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <time.h>
 
@@ -46,6 +47,20 @@ double machine_steal_s() {
   }
   const long ticks_per_s = sysconf(_SC_CLK_TCK);
   return ticks_per_s > 0 ? static_cast<double>(steal) / static_cast<double>(ticks_per_s) : 0.0;
+}
+
+// Pins the calling thread to every CPU but the force thread's (when it is pinned and there
+// is another).
+void keep_off_force_cpu(const SchedulerOptions& scheduler) {
+  const long online = sysconf(_SC_NPROCESSORS_ONLN);
+  if (!scheduler.pin_cpu || online < 2) return;
+  const int force_cpu = scheduler.cpu >= 0 ? scheduler.cpu : static_cast<int>(online - 1);
+  cpu_set_t others;
+  CPU_ZERO(&others);
+  for (int cpu = 0; cpu < online; ++cpu) {
+    if (cpu != force_cpu) CPU_SET(cpu, &others);
+  }
+  pthread_setaffinity_np(pthread_self(), sizeof others, &others);
 }
 
 // One tick's row on its way from the force thread to the session writer.
@@ -123,6 +138,17 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   if (options.render_loop) feed = std::make_unique<RenderFeed>();
   std::exception_ptr render_error;
   std::atomic<bool> render_finished{false};
+  // Paced lockstep: tick k's row goes to the background thread, which does the stage's
+  // lockstep work for it and fills its fields; tick k+1 waits for that.
+  const bool paced = options.background_in_lockstep && background != nullptr;
+  struct Handoff {
+    alignas(64) std::atomic<std::int64_t> ready{-1};  // the last tick handed over
+    alignas(64) std::atomic<std::int64_t> done{-1};   // the last tick whose work is done
+    RingSlot slot;                                    // that tick's row
+  };
+  auto handoff = std::make_unique<Handoff>();
+  LockstepRender paced_render;  // the background stage's changed voxels, to the render thread
+  paced_render.every_ticks = 0;
   const auto start = Clock::now() + std::chrono::milliseconds(5);
   std::thread force_thread([&] {
     pthread_setname_np(pthread_self(), "hapvox-force");
@@ -130,19 +156,35 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
     const double cpu_start = thread_cpu_s();
     const long switches_start = involuntary_switches();
     if (hooks.loop_started) hooks.loop_started();
+    bool handed = false;  // paced: a row is with the background thread
+    auto take_back = [&](std::int64_t tick) {
+      // Spin, then nap: a SCHED_FIFO thread that only yields would starve the background
+      // thread were the two ever on one CPU.
+      for (int spins = 0; handoff->done.load(std::memory_order_acquire) < tick; ++spins) {
+        if (spins < 256) {
+          std::this_thread::yield();
+        } else {
+          std::this_thread::sleep_for(std::chrono::microseconds(10));
+        }
+      }
+      rows->push(handoff->slot);
+      handed = false;
+    };
     for (std::size_t tick = 0; tick < ticks; ++tick) {
       if (options.stop != nullptr && options.stop->load(std::memory_order_relaxed)) break;
       const auto deadline =
           device.wait_for_tick(tick, start + static_cast<std::int64_t>(tick) * dt);
       if (device.finished()) break;
       const auto begin = Clock::now();
+      // The state this tick reads is the one after the last tick's background work.
+      if (handed) take_back(static_cast<std::int64_t>(tick) - 1);
       if (hooks.before_tick) hooks.before_tick(tick);
       RingSlot slot;
       TickRecord& row = slot.row;
       force.acquire_published();
       slot.nonfinite = run_force_stage(force, device, tick, limits, ramp, row) ? 1 : 0;
       const auto end = Clock::now();
-      if (background != nullptr) background->fill_realtime_row(row);
+      if (background != nullptr && !paced) background->fill_realtime_row(row);
       row.scheduled_ns = ns_between(start, deadline);
       row.start_ns = ns_between(start, begin);
       row.compute_ns = ns_between(begin, end);
@@ -158,8 +200,15 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
         feed->tool.publish(RenderToolState{row.tool_position_mm, row.displacement_mm,
                                            row.contact != 0, static_cast<std::int64_t>(tick)});
       }
-      rows->push(slot);
+      if (paced) {
+        handoff->slot = slot;
+        handoff->ready.store(static_cast<std::int64_t>(tick), std::memory_order_release);
+        handed = true;
+      } else {
+        rows->push(slot);
+      }
     }
+    if (handed) take_back(handoff->ready.load(std::memory_order_relaxed));
     if (hooks.loop_finished) hooks.loop_finished();
     force_cpu_s = thread_cpu_s() - cpu_start;
     force_switches = involuntary_switches() - switches_start;
@@ -169,7 +218,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
       sched_param normal{};
       pthread_setschedparam(pthread_self(), SCHED_OTHER, &normal);
     }
-    if (background != nullptr) {
+    if (background != nullptr && !paced) {
       // Hand over what is still pending before the background thread finishes. Keep
       // taking up its publications: it may be waiting for that before it can drain the
       // queue that this flush waits for.
@@ -182,7 +231,61 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
     if (background != nullptr) background->wake();  // an idle background thread finishes
   });
   std::thread background_thread;
-  if (background != nullptr) {
+  if (paced) {
+    if (feed != nullptr) {
+      paced_render.voxel_changed = [&feed](const openvdb::Coord& ijk, float density) {
+        feed->voxels.offer_patch(VoxelPatch{ijk, density});
+      };
+    }
+    background_thread = std::thread([&] {
+      pthread_setname_np(pthread_self(), "hapvox-relax");
+      // The force thread waits for this one every tick: just below it in priority (where
+      // SCHED_FIFO is granted), and off its CPU, so a busy machine does not hold it back.
+      if (options.scheduler.realtime_policy) {
+        prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+        sched_param param{};
+        param.sched_priority = std::max(1, options.scheduler.fifo_priority - 1);
+        pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);  // refused: SCHED_OTHER
+      }
+      keep_off_force_cpu(options.scheduler);
+      const double cpu_start = thread_cpu_s();
+      std::int64_t next = 0;
+      int idle = 0;
+      while (true) {
+        if (handoff->ready.load(std::memory_order_acquire) < next) {
+          if (force_done.load(std::memory_order_acquire) &&
+              handoff->ready.load(std::memory_order_acquire) < next) {
+            break;
+          }
+          // Spin a little (the next tick is due within a period), then nap.
+          if (++idle < 64) {
+            std::this_thread::yield();
+          } else {
+            std::this_thread::sleep_for(std::chrono::microseconds(50));
+          }
+          if (feed != nullptr) feed->voxels.retry_patches();
+          continue;
+        }
+        idle = 0;
+        TickRecord& row = handoff->slot.row;
+        const auto begin = Clock::now();
+        background->run_lockstep_tick(static_cast<std::size_t>(next), row,
+                                      feed != nullptr ? &paced_render : nullptr);
+        if (feed != nullptr) feed->voxels.retry_patches();
+        if (row.deleted_voxels > 0 || row.relaxed_voxels > 0) {
+          background_timing.slice_ns.push_back(ns_between(begin, Clock::now()));
+          background_timing.slice_start_ns.push_back(ns_between(start, begin));
+          background_timing.slice_max_deletions = std::max(
+              background_timing.slice_max_deletions, static_cast<std::size_t>(row.deleted_voxels));
+          background_timing.slice_max_steps = std::max(
+              background_timing.slice_max_steps, static_cast<std::size_t>(row.relaxed_voxels));
+        }
+        handoff->done.store(next, std::memory_order_release);
+        ++next;
+      }
+      background_timing.cpu_s = thread_cpu_s() - cpu_start;
+    });
+  } else if (background != nullptr) {
     background_thread = std::thread([&] {
       pthread_setname_np(pthread_self(), "hapvox-relax");
       background->run_realtime(force_done, start, feed.get(), background_timing);
@@ -196,17 +299,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
       // Below the force thread and off its CPU: llvmpipe fills every core it may use, and
       // the rasteriser threads it starts inherit this thread's nice value and affinity.
       setpriority(PRIO_PROCESS, 0, 10);
-      const long online = sysconf(_SC_NPROCESSORS_ONLN);
-      if (options.scheduler.pin_cpu && online > 1) {
-        const int force_cpu =
-            options.scheduler.cpu >= 0 ? options.scheduler.cpu : static_cast<int>(online - 1);
-        cpu_set_t others;
-        CPU_ZERO(&others);
-        for (int cpu = 0; cpu < online; ++cpu) {
-          if (cpu != force_cpu) CPU_SET(cpu, &others);
-        }
-        pthread_setaffinity_np(pthread_self(), sizeof others, &others);
-      }
+      keep_off_force_cpu(options.scheduler);
       // A render loop that fails (no EGL on this thread, a full disk) must not take the
       // process down from its thread: its error is rethrown once every thread is joined.
       try {
@@ -222,6 +315,9 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   // session and the summary; the force thread never waits for it.
   LatencyHistogram lateness;
   std::size_t written = 0, missed = 0, stalled = 0;
+  std::uint64_t watchdog_seen = 0, stats_written = 0;  // for the feed's LoopStats
+  std::int64_t last_mass_units = 0;
+  auto stats_time = start;
   std::int64_t first_scheduled_ns = 0, last_end_ns = 0;
   const std::size_t progress_every =
       ticks == Device::kUnbounded ? 1000 : std::max<std::size_t>(1, ticks / 100);
@@ -237,7 +333,26 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
       if (row.start_ns - row.scheduled_ns > period_ns) ++stalled;
       if (written == 0) first_scheduled_ns = row.scheduled_ns;  // a live device's first
       last_end_ns = row.start_ns + row.compute_ns;
+      watchdog_seen += row.watchdog;
+      last_mass_units = row.total_mass_units;
       ++written;
+    }
+    if (feed != nullptr) {
+      const auto now = Clock::now();
+      const double span_s = std::chrono::duration<double>(now - stats_time).count();
+      LoopStats& loop = feed->loop;
+      if (span_s > 0.0) {
+        loop.rate_hz.store(static_cast<double>(written - stats_written) / span_s,
+                           std::memory_order_relaxed);
+      }
+      stats_time = now;
+      stats_written = written;
+      loop.ticks.store(written, std::memory_order_relaxed);
+      loop.missed.store(missed, std::memory_order_relaxed);
+      loop.watchdog_trips.store(watchdog_seen, std::memory_order_relaxed);
+      loop.total_mass_units.store(last_mass_units, std::memory_order_relaxed);
+      loop.p99_lateness_us.store(1e-3 * static_cast<double>(lateness.percentile_ns(99.0)),
+                                 std::memory_order_relaxed);
     }
     if (progress && written >= next_progress) {
       progress(written, ticks);
@@ -293,7 +408,19 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   if (background != nullptr) {
     // The threads are joined: the background stage completes its work, no reader to wait
     // for; the render thread (still running) gets the last changes.
-    SculptSummary sculpted = background->finish(nullptr, feed.get(), &render_finished);
+    SculptSummary sculpted;
+    if (paced) {
+      // As the lockstep replay ends: what the force stage holds back is handed over, and
+      // the stage completes its work (its changed voxels still go to the render thread).
+      force.flush_handoffs();
+      sculpted = background->finish(feed != nullptr ? &paced_render : nullptr, nullptr, nullptr);
+      while (feed != nullptr && !feed->voxels.retry_patches() &&
+             !render_finished.load(std::memory_order_acquire)) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+    } else {
+      sculpted = background->finish(nullptr, feed.get(), &render_finished);
+    }
     sculpted.plastic_events = summary.plastic_events;
     sculpted.max_queue_depth = summary.max_queue_depth;
     if (sculpt_summary != nullptr) *sculpt_summary = sculpted;

@@ -84,6 +84,15 @@ struct RealtimeOptions {
   /// With a loop, a third thread renders: it is fed the force thread's tool pose and the
   /// relaxation thread's changed voxels (haptics/render_feed.h), never blocking either.
   RenderLoop render_loop;
+  /// Paced lockstep: the background stage does its lockstep work for tick k
+  /// (BackgroundStage::run_lockstep_tick, on a stage made for lockstep) on its thread while
+  /// the force thread waits for tick k+1's deadline, and tick k+1's force stage starts once
+  /// it is done. The run is then the lockstep replay of the positions the device gave, bit
+  /// for bit, paced by the clock: what may differ is when ticks ran (a tick whose
+  /// background work ran past the next deadline starts late, and a watchdog trip ramps the
+  /// force sent), never what they computed. The force thread still allocates nothing and
+  /// takes no lock; the waiting is a spin on an atomic.
+  bool background_in_lockstep = false;
 };
 
 /// Replays `device` in realtime through a model's stages. With a `background` stage, it

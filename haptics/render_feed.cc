@@ -32,6 +32,25 @@ RenderToolState ToolStateMailbox::read() const noexcept {
   }
 }
 
+void VoxelPatchQueue::offer_patch(const VoxelPatch& patch) {
+  if (patch_backlog_head_ == patch_backlog_.size() && queue_.try_push(patch)) return;
+  if (patch_backlog_head_ == patch_backlog_.size()) {
+    full_events_.fetch_add(1, std::memory_order_relaxed);
+  }
+  patch_backlog_.push_back(patch);
+}
+
+bool VoxelPatchQueue::retry_patches() {
+  while (patch_backlog_head_ < patch_backlog_.size() &&
+         queue_.try_push(patch_backlog_[patch_backlog_head_])) {
+    ++patch_backlog_head_;
+  }
+  if (patch_backlog_head_ < patch_backlog_.size()) return false;
+  patch_backlog_.clear();
+  patch_backlog_head_ = 0;
+  return true;
+}
+
 void VoxelPatchQueue::offer(const std::vector<openvdb::Coord>& coords, engine::MassGrid& mass) {
   pending_.clear();
   pending_.swap(backlog_);

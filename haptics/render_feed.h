@@ -71,11 +71,18 @@ class VoxelPatchQueue {
   bool drained_backlog() const { return backlog_.empty(); }
   /// Consumer (render thread). False when empty.
   bool pop(VoxelPatch& patch) { return queue_.try_pop(patch); }
+  /// Producer (a background stage paced in lockstep, haptics/realtime.h): one changed voxel
+  /// with its density; what does not fit waits, in order, for retry_patches. Never blocks.
+  void offer_patch(const VoxelPatch& patch);
+  /// Producer: pushes what offer_patch kept back; true when nothing waits any more.
+  bool retry_patches();
   /// Times the queue was full (the producer kept the rest for later).
   std::uint64_t full_events() const { return full_events_.load(std::memory_order_relaxed); }
 
  private:
   atomic_queue::AtomicQueue2<VoxelPatch, kCapacity, true, true, false, true> queue_;
+  std::vector<VoxelPatch> patch_backlog_;  // producer-only: offer_patch's, in order
+  std::size_t patch_backlog_head_ = 0;
   std::vector<openvdb::Coord> backlog_;  // producer-only
   std::vector<openvdb::Coord> pending_;  // producer-only scratch
   std::atomic<std::uint64_t> full_events_{0};
@@ -88,6 +95,18 @@ struct RenderTiming {
   std::vector<std::int64_t> frame_tick;      // the tick whose pose the frame shows
   std::uint64_t voxels_applied = 0;
   std::uint64_t frames_written = 0;
+
+  /// Records a frame that began at `begin` and ends now, showing tick `tick`.
+  void record_frame(std::chrono::steady_clock::time_point run_start,
+                    std::chrono::steady_clock::time_point begin, std::int64_t tick) {
+    using std::chrono::duration_cast;
+    using std::chrono::nanoseconds;
+    frame_start_ns.push_back(duration_cast<nanoseconds>(begin - run_start).count());
+    frame_ns.push_back(
+        duration_cast<nanoseconds>(std::chrono::steady_clock::now() - begin).count());
+    frame_tick.push_back(tick);
+    ++frames_written;
+  }
 };
 
 /// The proxy-FEM model's node displacements after one FEM step.
@@ -98,8 +117,20 @@ struct MeshDisplacement {
   std::vector<double> displacement_mm;         // 3 per vertex of *mesh
 };
 
+/// The force loop as the session writer last saw it (~10 times a second), for a window's
+/// overlay: written by the calling thread of replay_realtime, read by the render thread.
+struct LoopStats {
+  std::atomic<std::uint64_t> ticks{0};            // ticks run so far
+  std::atomic<std::uint64_t> missed{0};           // ticks that ended after the next deadline
+  std::atomic<std::uint64_t> watchdog_trips{0};   // ticks that overran the watchdog
+  std::atomic<double> rate_hz{0.0};               // ticks per second over the last update
+  std::atomic<double> p99_lateness_us{0.0};       // over the whole run so far
+  std::atomic<std::int64_t> total_mass_units{0};  // the sculpted clay's, the last row's
+};
+
 struct RenderFeed {
   std::chrono::steady_clock::time_point start;  // tick 0's deadline; set before threads start
+  LoopStats loop;
   ToolStateMailbox tool;
   VoxelPatchQueue voxels;
   TripleBuffer<MeshDisplacement> mesh;

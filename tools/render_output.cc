@@ -230,12 +230,7 @@ haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
         }
       }
       draw(tool);
-      timing.frame_start_ns.push_back(
-          std::chrono::duration_cast<std::chrono::nanoseconds>(begin - feed.start).count());
-      timing.frame_ns.push_back(
-          std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - begin).count());
-      timing.frame_tick.push_back(tool.tick);
-      ++timing.frames_written;
+      timing.record_frame(feed.start, begin, tool.tick);
       if (finishing) break;
       // Absolute deadlines; a frame that ran long is not made up for.
       next = std::max(next + period, Clock::now());

@@ -366,3 +366,83 @@ TEST(Realtime, FemForceLoopDoesNotAllocateAfterStart) {
 
 }  // namespace
 }  // namespace hapvox::haptics
+
+namespace hapvox::haptics {
+namespace {
+
+// One sculpting run of the clay stroke with the relaxation in lockstep: in lockstep, or
+// realtime with the relaxation paced by the clock (RealtimeOptions::background_in_lockstep).
+struct LockstepSculpt {
+  engine::DensityField field = engine::generate_volume("block:dims=48");
+  const engine::ToolForceModel model{field, fixtures::clay_tool()};
+  engine::MassGrid mass{field};
+  SurfaceChangeChannel channel;
+  VoxelForceStage force{model, &channel};
+  RelaxationStage relaxation{mass, channel, field, force, RelaxBudget{}};
+};
+
+std::vector<std::pair<openvdb::Coord, float>> active_voxels(const engine::MassGrid& mass) {
+  const engine::DensityField density = mass.to_density_field();
+  std::vector<std::pair<openvdb::Coord, float>> voxels;
+  for (auto it = density.grid().cbeginValueOn(); it; ++it) {
+    voxels.emplace_back(it.getCoord(), *it);
+  }
+  return voxels;
+}
+
+TEST(Realtime, PacedLockstepSculptsExactlyAsTheLockstepReplay) {
+  const std::string lockstep_path = testing::scratch_dir() + "/lockstep.h5";
+  const std::string paced_path = testing::scratch_dir() + "/paced.h5";
+  LockstepSculpt lockstep;
+  {
+    TraceDevice device = clay_device(1000.0, 40.0);
+    SessionWriter session(lockstep_path);
+    replay_lockstep(lockstep.force, &lockstep.relaxation, device, DeviceLimits{}, &session);
+    session.close();
+  }
+  LockstepSculpt paced;
+  RealtimeOptions realtime;
+  realtime.scheduler.lock_memory = false;
+  realtime.background_in_lockstep = true;
+  std::uint64_t at_start = 0, force_allocations = ~0ull;
+  realtime.hooks.loop_started = [&] { at_start = allocations_on_this_thread; };
+  realtime.hooks.loop_finished = [&] { force_allocations = allocations_on_this_thread - at_start; };
+  TraceDevice device = clay_device(1000.0, 40.0);
+  SessionWriter session(paced_path);
+  SculptSummary sculpted;
+  TimingSummary timing;
+  replay_realtime(paced.force, &paced.relaxation, device, DeviceLimits{}, &session, {}, &sculpted,
+                  &timing, realtime);
+  session.close();
+  // The relaxation allocates on its own thread; the force thread, waiting for it, does not.
+  EXPECT_EQ(force_allocations, 0u);
+  EXPECT_GT(sculpted.deleted_voxels, 100u);
+  EXPECT_EQ(sculpted.initial_mass_units, sculpted.final_mass_units);
+  EXPECT_FALSE(timing.relax_slice_ns.empty());
+  // Tick for tick the same work and the same state: every relaxation, every plastic event,
+  // the mass; the same force wherever the same ramp factor was sent (a watchdog trip on a
+  // loaded machine ramps a realtime tick, never changes what it computed).
+  for (const char* column :
+       {"/relax/deleted_voxels", "/relax/relaxed_voxels", "/relax/total_mass_units",
+        "/plastic/event", "/displacement_mm", "/contact_area_mm2"}) {
+    EXPECT_EQ(read_session_column(lockstep_path, column), read_session_column(paced_path, column))
+        << column;
+  }
+  const std::vector<double> force_a = read_session_column(lockstep_path, "/force_n");
+  const std::vector<double> force_b = read_session_column(paced_path, "/force_n");
+  const std::vector<double> scale_a = read_session_column(lockstep_path, "/force_scale");
+  const std::vector<double> scale_b = read_session_column(paced_path, "/force_scale");
+  ASSERT_EQ(force_a.size(), force_b.size());
+  std::size_t compared = 0;
+  for (std::size_t k = 0; k < scale_a.size(); ++k) {
+    if (scale_a[k] != scale_b[k]) continue;
+    ++compared;
+    for (int a = 0; a < 3; ++a) ASSERT_EQ(force_a[3 * k + a], force_b[3 * k + a]) << k;
+  }
+  EXPECT_GE(compared, 100u);  // a trip ramps ~200 ticks: the short stroke keeps some at least
+  // And the sculpted clay is the same, voxel for voxel.
+  EXPECT_EQ(active_voxels(lockstep.mass), active_voxels(paced.mass));
+}
+
+}  // namespace
+}  // namespace hapvox::haptics
