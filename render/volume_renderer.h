@@ -95,6 +95,9 @@ class VolumeRenderer {
   const Eigen::Vector3d& volume_lo_mm() const { return volume_.lo_mm; }
   const Eigen::Vector3d& volume_hi_mm() const { return volume_.hi_mm; }
   std::uint64_t bricks_uploaded() const { return bricks_uploaded_total_; }
+  /// The renderer's own copy of the density, as set_voxel changed it (picking reads it:
+  /// render/pick.h).
+  const DenseVolume& volume() const { return volume_; }
 
  private:
   struct Gl;
