@@ -15,7 +15,8 @@ seconds=${1:-30}
 bash "$root/scripts/setup.sh" clang-14 libclang-rt-14-dev
 
 build_dir="$root/build-fuzz"
-targets=(volume_fuzz dicom_fuzz trace_fuzz materials_fuzz incision_fuzz bridge_fuzz)
+targets=(volume_fuzz dicom_fuzz trace_fuzz materials_fuzz incision_fuzz bridge_fuzz
+  pointer_script_fuzz)
 mkdir -p "$build_dir"
 if ! bash "$root/scripts/build.sh" --target "${targets[*]}" "$build_dir" \
   -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DHAPVOX_SANITIZE=address \
@@ -29,7 +30,7 @@ fi
 # header comment. Seeds are prefixed accordingly.
 seeds="$build_dir/seeds"
 rm -rf "$seeds"
-mkdir -p "$seeds"/{volume_fuzz,dicom_fuzz,trace_fuzz,materials_fuzz,incision_fuzz,bridge_fuzz}
+mkdir -p "$seeds"/{volume_fuzz,dicom_fuzz,trace_fuzz,materials_fuzz,incision_fuzz,bridge_fuzz,pointer_script_fuzz}
 prefixed() {  # prefixed PREFIX_PRINTF_FORMAT FILE OUT
   { printf "$1"; cat "$2"; } >"$3"
 }
@@ -103,6 +104,9 @@ force = head(2, 8) + struct.pack("<IQQ3dI", 7, 123456789, 1000, 0.5, 0.0, -1.0, 
 open(sys.argv[1] + "/position", "wb").write(b"\0" + position)
 open(sys.argv[1] + "/force", "wb").write(b"\1" + force)
 PY
+
+# Sculpting window scripts (haptics/pointer_script.h): the bundled one.
+cp "$root"/traces/*.script "$seeds/pointer_script_fuzz/"
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-"abort_on_error=1"}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-"print_stacktrace=1:halt_on_error=1"}
