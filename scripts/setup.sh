@@ -11,6 +11,8 @@ packages=(
   libnifti2-dev libgdcm-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libopengl-dev libgl-dev libpng-dev
+  libglfw3-dev libimgui-dev  # the sculpting window and its overlay
+  xvfb xauth  # a display for the window's tests on a machine without one
   python3-h5py python3-numpy python3-matplotlib
   python3-nibabel mricron-data  # an independent NIfTI reader and real NIfTI files, for tests
   python3-pydicom  # DICOM test files and series written by another tool, for tests

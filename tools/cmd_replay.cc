@@ -18,16 +18,23 @@
 #include "tools/tissue_options.h"
 
 namespace hapvox::cli {
-namespace {
 
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
-  const bool live = !f.device.empty();
-  if (live) check_bridge_flags(f);
+  const bool live = !f.device.empty() || f.front_end != nullptr;
+  if (!f.device.empty()) check_bridge_flags(f);
   if (!f.trace_out.empty() && !live) {
     throw InputError("--trace-out", "needs --device (a trace replay has its trace already)");
   }
   if (f.trace_path.empty() && !live) {
     throw InputError("trace", "a trace file is needed (or --device udp:HOST:PORT)");
+  }
+  if (f.front_end != nullptr) {
+    if (f.model != "voxel") {
+      throw InputError("--model",
+                       "sculpt runs the voxel model (the proxy mesh is refined along "
+                       "a trace, which a live session does not have ahead)");
+    }
+    if (!f.render_dir.empty()) throw InputError("--render-dir", "sculpt draws in its window");
   }
   if (f.model == "fem") return run_fem_replay(f, command_line);
   if (f.model != "voxel")
@@ -96,16 +103,25 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   engine::DensityField field =
       tissue ? std::move(tissue->field) : engine::load_volume(f.volume, mapping);
   // Realtime sculpting: the force thread reads one of two buffers the relaxation updates.
+  // Sculpting in a window runs the relaxation in lockstep, paced by the clock
+  // (RealtimeOptions::background_in_lockstep): its trace replays it bit for bit.
+  const bool paced = f.front_end != nullptr;
   std::unique_ptr<haptics::DoubleBufferedField> buffers;
-  if (f.realtime && f.plastic) buffers = std::make_unique<haptics::DoubleBufferedField>(field);
+  if (f.realtime && f.plastic && !paced) {
+    buffers = std::make_unique<haptics::DoubleBufferedField>(field);
+  }
   const engine::ToolForceModel model(buffers ? buffers->buffer(0) : field, force_options,
                                      tissue ? &tissue->tissue : nullptr);
   // The device: a replayed trace, or a live one behind the bridge (bound here, before any
   // file is made: a port in use is one line).
   std::unique_ptr<haptics::TraceDevice> traced;
   std::unique_ptr<haptics::BridgeDevice> bridge;
+  std::unique_ptr<haptics::Device> fronted;  // sculpt's window device
   std::vector<std::string> warnings;
-  if (live) {
+  const double tool_radius_mm = 0.5 * model.options().tool.diameter_mm;
+  if (f.front_end != nullptr) {
+    fronted = f.front_end->make_device(field, tool_radius_mm);
+  } else if (live) {
     bridge = make_bridge_device(f, f.transform.resolve_fixed());
   } else {
     const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
@@ -116,11 +132,17 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                                                     f.transform.resolve(trace, field));
     warnings = replay_warnings(f.trace_path, model, *traced);
   }
-  haptics::Device& device = live ? static_cast<haptics::Device&>(*bridge) : *traced;
+  haptics::Device& device = fronted  ? *fronted
+                            : bridge ? static_cast<haptics::Device&>(*bridge)
+                                     : *traced;
 
-  // The render output before the session: a machine without EGL fails before any file.
-  std::unique_ptr<FrameRecorder> recorder =
-      make_replay_recorder(f, field, 0.5 * model.options().tool.diameter_mm);
+  // The render output before the session: a machine without EGL (or a window without a
+  // display) fails before any file.
+  std::unique_ptr<FrameRecorder> recorder = make_replay_recorder(f, field, tool_radius_mm);
+  haptics::RenderLoop window_loop;
+  if (f.front_end != nullptr) {
+    window_loop = f.front_end->make_render_loop(field, device, tool_radius_mm);
+  }
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device,
                        traced ? &traced->trace() : nullptr);
@@ -134,6 +156,9 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     session.set_attribute("relax_voxels_per_tick",
                           static_cast<std::int64_t>(f.relax_voxels_per_tick));
     session.set_attribute("relax_tolerance", f.relax_tolerance);
+    session.set_attribute("relax_schedule", std::string(paced ? "lockstep, paced by the clock"
+                                                        : f.realtime ? "own thread, in slices"
+                                                                     : "lockstep"));
     session.set_attribute("normal_density", f.normal_density);
     session.set_attribute("normal_density_units",
                           std::int64_t{engine::normal_density_units(f.normal_density)});
@@ -153,7 +178,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     haptics::RelaxBudget budget;
     budget.relax_voxels = f.relax_voxels_per_tick;
     relaxation =
-        f.realtime
+        f.realtime && !paced
             ? std::make_unique<haptics::RelaxationStage>(*mass, channel, *buffers, budget)
             : std::make_unique<haptics::RelaxationStage>(*mass, channel, field, force, budget);
   }
@@ -165,8 +190,13 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     if (f.realtime) {
       haptics::RealtimeOptions options = realtime_options(f);
       if (live) options.stop = stop_request();
+      options.background_in_lockstep = paced;
       if (recorder) {
         options.render_loop = recorder->realtime_loop(f.render_fps);
+        options.scheduler.lock_future_memory = false;
+      }
+      if (window_loop) {
+        options.render_loop = window_loop;
         options.scheduler.lock_future_memory = false;
       }
       s = haptics::replay_realtime(force, relaxation.get(), device, f.limits, &session, progress,
@@ -217,7 +247,8 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     engine::write_nrrd(sculpted_field, f.sculpt_out + ".nrrd");
   }
 
-  std::printf("replayed %s on %s -> %s\n", live ? f.device.c_str() : f.trace_path.c_str(),
+  const std::string source = f.front_end ? f.front_end->name : live ? f.device : f.trace_path;
+  std::printf("%s %s on %s -> %s\n", f.front_end ? "sculpted with" : "replayed", source.c_str(),
               f.volume.c_str(), f.output.c_str());
   print_run_report(f, s, timing, device,
                    "(" + std::to_string(model.surface_sample_count()) + " surface samples)");
@@ -252,8 +283,10 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   return ReplayResult{s, timing, sculpted};
 }
 
-void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
-  cmd->add_option("trace", flags->trace_path, "Trace file (.csv or .h5); or --device");
+namespace {
+
+// --device and the bridge's flags.
+void add_live_flags(CLI::App* cmd, ReplayFlags* flags) {
   cmd->add_option("--device", flags->device,
                   "udp:HOST:PORT: take the tool from a live device program through the bridge "
                   "(docs/formats.md: Device bridge packets; hapvox device-sim is its reference "
@@ -267,7 +300,16 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
   cmd->add_option("--end-after-silence-s", flags->end_after_silence_s,
                   "--device: end the session after this long without a position (0: never)")
       ->capture_default_str();
-  cmd->add_option("--volume,-v", flags->volume, volume_help())->required();
+}
+
+}  // namespace
+
+void add_replay_flags(CLI::App* cmd, ReplayFlags* flags, bool with_inputs) {
+  if (with_inputs) {
+    cmd->add_option("trace", flags->trace_path, "Trace file (.csv or .h5); or --device");
+    add_live_flags(cmd, flags);
+    cmd->add_option("--volume,-v", flags->volume, volume_help())->required();
+  }
   cmd->add_option("--max-force-n", flags->limits.max_force_n, "Device force limit, N")
       ->capture_default_str();
   cmd->add_option("--ramp-in-s", flags->limits.ramp_in_s, "Force ramp-in time at start, s")
@@ -285,7 +327,7 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
   cmd->add_option("--render-every-ticks", flags->render_every_ticks,
                   "Lockstep: a frame every N ticks")
       ->capture_default_str();
-  flags->render.size = "256";  // frames beside a force loop: small by default
+  if (with_inputs) flags->render.size = "256";  // frames beside a force loop: small by default
   flags->render.add_to(*cmd, "render-");
   cmd->add_option("--model", flags->model,
                   "Deformation model: voxel (Prados: elastic/plastic forces on the density "
@@ -334,6 +376,8 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags) {
                   "trips the watchdog: the force ramps down to zero and back over --ramp-in-s")
       ->capture_default_str();
 }
+
+namespace {
 
 struct TimingBudget {
   double max_p99_lateness_us = 250.0;

@@ -67,13 +67,17 @@ std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
   options.stop = &g_stop_requested;
   haptics::UdpSocket socket =
       haptics::UdpSocket::bound(haptics::parse_udp_address(f.device), "--device");
-  // Ctrl-C or a kill ends the session after the tick under way; the file keeps every tick.
-  std::signal(SIGINT, request_stop);
-  std::signal(SIGTERM, request_stop);
+  end_session_on_signals();
   return std::make_unique<haptics::BridgeDevice>(std::move(socket), transform, options);
 }
 
 const std::atomic<bool>* stop_request() { return &g_stop_requested; }
+
+void end_session_on_signals() {
+  // Ctrl-C or a kill ends the session after the tick under way; the file keeps every tick.
+  std::signal(SIGINT, request_stop);
+  std::signal(SIGTERM, request_stop);
+}
 
 void write_bridge_attributes(haptics::SessionWriter& session, const haptics::BridgeDevice& device) {
   const haptics::BridgeCounters& c = device.counters();

@@ -3,6 +3,7 @@
 // voxel model in tools/cmd_replay.cc, the proxy FEM in tools/replay_fem.cc): the flags, the
 // result, the session attributes every run writes and the lines every run prints.
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -17,9 +18,25 @@
 
 namespace hapvox::cli {
 
+/// What `hapvox sculpt` (tools/cmd_sculpt.cc) puts where a replay has its trace: a device
+/// a window drives, and the window as the realtime loop's render loop.
+struct LiveFrontEnd {
+  std::string name;  // the session's "device" attribute, e.g. "mouse"
+  /// The device, once the volume is loaded and the tool known.
+  std::function<std::unique_ptr<haptics::Device>(const engine::DensityField& field,
+                                                 double tool_radius_mm)>
+      make_device;
+  /// The render loop for `device`, made before the session file (a machine without a display
+  /// fails before any output).
+  std::function<haptics::RenderLoop(const engine::DensityField& field, haptics::Device& device,
+                                    double tool_radius_mm)>
+      make_render_loop;
+};
+
 struct ReplayFlags {
   std::string trace_path;
-  std::string device;     // --device udp:HOST:PORT: a live device through the bridge
+  std::string device;  // --device udp:HOST:PORT: a live device through the bridge
+  const LiveFrontEnd* front_end = nullptr;  // sculpt: a window's device instead of either
   std::string trace_out;  // --trace-out T.csv: the positions a live session's ticks used
   double silence_timeout_s = 0.01;
   double end_after_silence_s = 5.0;
@@ -69,6 +86,14 @@ struct ReplayResult {
 /// `replay --model fem` (tools/replay_fem.cc).
 ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_line);
 
+/// `hapvox replay` (and check-timing, and sculpt through f.front_end): the run, the session,
+/// the report (tools/cmd_replay.cc).
+ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line);
+
+/// Registers the replay's flags on `cmd` (the trace positional and --volume with
+/// `with_inputs`: sculpt names its volume positionally and has no trace).
+void add_replay_flags(CLI::App* cmd, ReplayFlags* flags, bool with_inputs = true);
+
 /// The box the tool's centre sweeps over the trace, grown by `radius_mm`: where the proxy
 /// mesh is refined.
 Eigen::AlignedBox3d fem_tool_region(const haptics::TraceDevice& device, double radius_mm);
@@ -85,8 +110,10 @@ void check_bridge_flags(const ReplayFlags& f);
 /// The bridge device listening on --device; Ctrl-C and SIGTERM end its session cleanly.
 std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
     const ReplayFlags& f, const haptics::DeviceTransform& transform);
-/// Set by Ctrl-C / SIGTERM once make_bridge_device has run.
+/// Set by Ctrl-C / SIGTERM once make_bridge_device (or end_session_on_signals) has run.
 const std::atomic<bool>* stop_request();
+/// Ctrl-C and SIGTERM set stop_request() (a live session then ends cleanly, its files whole).
+void end_session_on_signals();
 void write_bridge_attributes(haptics::SessionWriter& session, const haptics::BridgeDevice& device);
 void print_bridge_lines(const haptics::BridgeDevice& device);
 /// The trace a live session's ticks used (t = tick / rate, the device-frame positions), as

@@ -127,7 +127,7 @@ void write_run_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
   const haptics::DeviceTransform& transform = device.transform();
   session.set_attribute("command_line", command_line);
   if (trace == nullptr) {
-    session.set_attribute("device", f.device);
+    session.set_attribute("device", f.front_end != nullptr ? f.front_end->name : f.device);
   } else {
     write_trace_attributes(session, f, columns, *trace);
   }
