@@ -420,11 +420,13 @@ TEST(Realtime, PacedLockstepSculptsExactlyAsTheLockstepReplay) {
   EXPECT_EQ(sculpted.initial_mass_units, sculpted.final_mass_units);
   EXPECT_FALSE(timing.relax_slice_ns.empty());
   // Tick for tick the same work and the same state: every relaxation, every plastic event,
-  // the mass; the same force wherever the same ramp factor was sent (a watchdog trip on a
-  // loaded machine ramps a realtime tick, never changes what it computed).
+  // the mass, the stress and strain the force came from; the same force wherever the same
+  // ramp factor was sent (a watchdog trip on a loaded machine ramps a realtime tick, never
+  // changes what it computed).
   for (const char* column :
        {"/relax/deleted_voxels", "/relax/relaxed_voxels", "/relax/total_mass_units",
-        "/plastic/event", "/displacement_mm", "/contact_area_mm2"}) {
+        "/plastic/event", "/plastic/strain", "/plastic/stress_pa", "/plastic/zone",
+        "/displacement_mm", "/contact_area_mm2", "/contact"}) {
     EXPECT_EQ(read_session_column(lockstep_path, column), read_session_column(paced_path, column))
         << column;
   }
@@ -439,7 +441,9 @@ TEST(Realtime, PacedLockstepSculptsExactlyAsTheLockstepReplay) {
     ++compared;
     for (int a = 0; a < 3; ++a) ASSERT_EQ(force_a[3 * k + a], force_b[3 * k + a]) << k;
   }
-  EXPECT_GE(compared, 100u);  // a trip ramps ~200 ticks: the short stroke keeps some at least
+  // Each trip ramps ~200 ticks; under ThreadSanitizer the relaxation outlasts most ticks and
+  // 32 of 2000 kept full force (stop 22's CI). The stress above is compared on every tick.
+  EXPECT_GT(compared, 0u);
   // And the sculpted clay is the same, voxel for voxel.
   EXPECT_EQ(active_voxels(lockstep.mass), active_voxels(paced.mass));
 }
