@@ -16,6 +16,7 @@
 #include "engine/errors.h"
 #include "haptics/session.h"
 #include "haptics/udp_socket.h"
+#include "session_compare.h"
 #include "test_data.h"
 
 namespace hapvox {
@@ -106,7 +107,9 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
     ++compared;
     for (int a = 0; a < 3; ++a) ASSERT_EQ(answers[k].force[a], direct[3 * k + a]) << k;
   }
-  EXPECT_GE(compared, answers.size() / 2);
+  // A trip ramps ~200 ticks (321 of 501 were left in a fresh-clone ASan run with builds
+  // beside it): the hold keeps some hundred at least.
+  EXPECT_GE(compared, 100u);
   // The live session records what came: its rows name the packet each tick used.
   const std::vector<double> sequence =
       haptics::read_session_column(dir + "/live.h5", "/device_sequence");
@@ -129,21 +132,12 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
   // where the lockstep replay is not: those are the ticks that may differ).
   ASSERT_EQ(run_hapvox("replay " + dir + "/live.csv" + tool + " -o " + dir + "/again.h5").exit_code,
             0);
-  const std::vector<double> live_force = haptics::read_session_column(dir + "/live.h5", "/force_n");
-  const std::vector<double> again_force =
-      haptics::read_session_column(dir + "/again.h5", "/force_n");
-  const std::vector<double> live_scale =
-      haptics::read_session_column(dir + "/live.h5", "/force_scale");
-  const std::vector<double> again_scale =
-      haptics::read_session_column(dir + "/again.h5", "/force_scale");
-  ASSERT_EQ(live_force.size(), again_force.size());
-  std::size_t same_ramp = 0;
-  for (std::size_t k = 0; k < live_scale.size(); ++k) {
-    if (live_scale[k] != again_scale[k]) continue;
-    ++same_ramp;
-    for (int a = 0; a < 3; ++a) ASSERT_EQ(live_force[3 * k + a], again_force[3 * k + a]) << k;
-  }
-  EXPECT_GE(same_ramp, live_scale.size() / 2);
+  testing::expect_same_columns(
+      dir + "/live.h5", dir + "/again.h5",
+      {"/tool_position_mm", "/displacement_mm", "/contact_area_mm2", "/contact"});
+  // Each watchdog trip on a loaded machine ramps ~200 ticks (439 of 579 were left in a
+  // fresh-clone ASan run with builds beside it): some hundred at least.
+  EXPECT_GE(testing::expect_same_forces_at_same_ramp(dir + "/live.h5", dir + "/again.h5"), 100u);
 }
 
 TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
