@@ -74,4 +74,32 @@ Eigen::Vector3d surface_normal(const DenseVolume& volume, const Eigen::Vector3d&
   return length > 0.0 ? Eigen::Vector3d(-gradient / length) : Eigen::Vector3d::Zero();
 }
 
+Eigen::Vector3d clear_of_material(const DenseVolume& volume, const Eigen::Vector3d& start_mm,
+                                  const Eigen::Vector3d& direction, double radius_mm,
+                                  double threshold, double max_distance_mm) {
+  if (!direction.allFinite() || direction.norm() == 0.0) return start_mm;
+  const Eigen::Vector3d unit = direction.normalized();
+  auto clear = [&](const Eigen::Vector3d& centre) {
+    if (density_at(volume, centre) >= threshold) return false;
+    for (int x = -1; x <= 1; ++x) {
+      for (int y = -1; y <= 1; ++y) {
+        for (int z = -1; z <= 1; ++z) {
+          if (x == 0 && y == 0 && z == 0) continue;
+          const Eigen::Vector3d on_sphere =
+              centre + radius_mm * Eigen::Vector3d(x, y, z).normalized();
+          if (density_at(volume, on_sphere) >= threshold) return false;
+        }
+      }
+    }
+    return true;
+  };
+  const double step = 0.25 * volume.voxel_mm.minCoeff();
+  Eigen::Vector3d p = start_mm;
+  for (double t = 0.0; t <= max_distance_mm; t += step) {
+    p = start_mm + t * unit;
+    if (clear(p)) return p;
+  }
+  return p;
+}
+
 }  // namespace hapvox::render

@@ -26,4 +26,14 @@ std::optional<Eigen::Vector3d> pick_surface(const DenseVolume& volume,
 /// differences half a voxel either side), normalised; zero where the density is flat.
 Eigen::Vector3d surface_normal(const DenseVolume& volume, const Eigen::Vector3d& p_mm);
 
+/// Where a sphere tool hovers clear of the surface: the first point start + t direction
+/// (t >= 0, in quarter-voxel steps, at most `max_distance_mm`) where the density is below
+/// `threshold` at the centre and at 26 points of the sphere of `radius_mm` around it (the
+/// cube's face, edge and corner directions). The farthest point tried when none is clear.
+/// A hover beside a groove narrower than the tool would touch the groove's other wall if
+/// it stood off along the normal of the wall under the cursor.
+Eigen::Vector3d clear_of_material(const DenseVolume& volume, const Eigen::Vector3d& start_mm,
+                                  const Eigen::Vector3d& direction, double radius_mm,
+                                  double threshold, double max_distance_mm);
+
 }  // namespace hapvox::render

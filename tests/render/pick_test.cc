@@ -80,5 +80,45 @@ TEST(Pick, TheNormalPointsOutOfTheMaterial) {
   EXPECT_EQ(surface_normal(volume, Eigen::Vector3d(16.5, 27.0, 34.0)), Eigen::Vector3d::Zero());
 }
 
+TEST(Pick, AHoveringToolBacksOffUntilNoPartOfItTouchesTheMaterial) {
+  // From the half-space's surface (x = 14 mm) back along -x, a tool of radius 2 mm is clear
+  // once its +x side is below the half density: at the first quarter-voxel step past x = 12.
+  const DenseVolume volume = half_space();
+  const Eigen::Vector3d off = clear_of_material(volume, Eigen::Vector3d(14.0, 27.0, 34.0),
+                                                Eigen::Vector3d(-3.0, 0.0, 0.0), 2.0, 0.5, 10.0);
+  EXPECT_EQ(off, Eigen::Vector3d(11.75, 27.0, 34.0));
+  // Already clear: it stays; no direction: it stays; never clear within reach: the farthest.
+  const Eigen::Vector3d free_point(11.0, 27.0, 34.0);
+  EXPECT_EQ(clear_of_material(volume, free_point, Eigen::Vector3d(-1, 0, 0), 2.0, 0.5, 5.0),
+            free_point);
+  EXPECT_EQ(clear_of_material(volume, Eigen::Vector3d(16.0, 27.0, 34.0), Eigen::Vector3d::Zero(),
+                              2.0, 0.5, 5.0),
+            Eigen::Vector3d(16.0, 27.0, 34.0));
+  EXPECT_EQ(clear_of_material(volume, Eigen::Vector3d(15.0, 27.0, 34.0), Eigen::Vector3d(1, 0, 0),
+                              2.0, 0.5, 1.0),
+            Eigen::Vector3d(16.0, 27.0, 34.0));
+
+  // A slot 4 mm wide (x in [2, 6] mm) through a slab (z < 4 mm): a tool of radius 2.5 mm
+  // does not fit, so from the slot's bottom it backs out to above the slab (its side samples
+  // reach the walls until z passes 4 mm), not to a standoff from one wall.
+  DenseVolume slab;
+  slab.dims = Eigen::Vector3i(8, 8, 8);
+  slab.voxel_mm = Eigen::Vector3d(1.0, 1.0, 1.0);
+  slab.lo_mm = Eigen::Vector3d::Zero();
+  slab.hi_mm = Eigen::Vector3d(8.0, 8.0, 8.0);
+  slab.density.assign(slab.voxel_count(), 0.0f);
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        if (x < 2 || x >= 6) slab.density[slab.index(x, y, z)] = 1.0f;
+  EXPECT_EQ(clear_of_material(slab, Eigen::Vector3d(4.0, 4.0, 1.0), Eigen::Vector3d(0, 0, 1), 2.5,
+                              0.5, 10.0),
+            Eigen::Vector3d(4.0, 4.0, 4.25));
+  // A tool of radius 1.5 mm fits in the slot: it is clear where it starts.
+  EXPECT_EQ(clear_of_material(slab, Eigen::Vector3d(4.0, 4.0, 1.0), Eigen::Vector3d(0, 0, 1), 1.5,
+                              0.5, 10.0),
+            Eigen::Vector3d(4.0, 4.0, 1.0));
+}
+
 }  // namespace
 }  // namespace hapvox::render
