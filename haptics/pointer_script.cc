@@ -38,7 +38,8 @@ double number(const std::string& word, const char* what, const std::string& wher
 }  // namespace
 
 const std::vector<std::string>& pointer_script_keys() {
-  static const std::vector<std::string> keys = {"space", "up", "down", "left", "right", "escape"};
+  static const std::vector<std::string> keys = {"space",  "up", "down", "left", "right",
+                                                "escape", "[",  "]",    "p",    "z"};
   return keys;
 }
 
@@ -88,7 +89,7 @@ std::vector<PointerEvent> parse_pointer_script(const std::string& text, const st
       const auto& keys = pointer_script_keys();
       if (std::find(keys.begin(), keys.end(), w[2]) == keys.end()) {
         throw InputError(where, "unknown key '" + printable(w[2], 40) +
-                                    "' (space, up, down, left, right, escape)");
+                                    "' (space, up, down, left, right, escape, [, ], p, z)");
       }
       if (w[3] != "down" && w[3] != "up") {
         throw InputError(where, "a key goes 'down' or 'up', not '" + printable(w[3], 40) + "'");

@@ -9,11 +9,13 @@
 //   0.7  press                 the left button down: picks the surface under the cursor
 //   2.4  release
 //   1.0  wheel -2              two notches: + pushes the tool in, - pulls it out
-//   1.2  key space down        a key down or up: space, up, down, left, right, escape
+//   1.2  key space down        a key down or up: space, up, down, left, right, escape, and
+//                              [ ] (tool size), p (plastic), z (undo)
 //   2.5  screenshot groove.png the window as it is drawn then, as a PNG
 //   3.0  quit                  ends the session, as closing the window does
 //
-// Times are seconds from the window's first frame and never decrease.
+// Times are seconds from the window's first frame and never decrease; the clock stops while
+// a key that changes the tool or the clay starts the session's next segment.
 
 #include <string>
 #include <vector>

@@ -48,6 +48,7 @@ struct Input {
   double orbit_deg[2] = {0.0, 0.0};     // azimuth, elevation still to apply
   bool press_pending = false;           // a press to pick at the next frame
   bool end_requested = false;
+  std::optional<SegmentEnd> segment_key;  // [ ] p z: what the next segment changes
   // A scripted move under way: from (x0, y0) at t0 to (x1, y1) at t1 (seconds).
   bool gliding = false;
   double glide[6] = {0, 0, 0, 0, 0, 0};
@@ -81,6 +82,10 @@ struct Input {
     if (name == "left") orbit_deg[0] -= 5.0;
     if (name == "right") orbit_deg[0] += 5.0;
     if (name == "escape") end_requested = true;
+    if (name == "[") segment_key = SegmentEnd::kSmallerTool;
+    if (name == "]") segment_key = SegmentEnd::kLargerTool;
+    if (name == "p") segment_key = SegmentEnd::kTogglePlastic;
+    if (name == "z") segment_key = SegmentEnd::kUndo;
   }
 };
 
@@ -98,6 +103,14 @@ const char* key_name(int key) {
       return "right";
     case GLFW_KEY_ESCAPE:
       return "escape";
+    case GLFW_KEY_LEFT_BRACKET:
+      return "[";
+    case GLFW_KEY_RIGHT_BRACKET:
+      return "]";
+    case GLFW_KEY_P:
+      return "p";
+    case GLFW_KEY_Z:
+      return "z";
     default:
       return nullptr;
   }
@@ -128,15 +141,17 @@ void install_callbacks(GLFWwindow* window) {
   });
 }
 
-// Applies the script's events due by `t_s`, up to the first press or release: each of
-// those gets a frame of its own (a slow frame must not press and release at once, nor pick
-// at a cursor that moved on). Adds the screenshots they ask for.
+// Applies the script's events due by `t_s`, up to the first press, release or key down:
+// each of those gets a frame of its own (a slow frame must not press and release at once,
+// pick at a cursor that moved on, or see a key only once the next stroke has begun). Adds
+// the screenshots they ask for.
 void play_script(const std::vector<haptics::PointerEvent>& script, std::size_t& next, double t_s,
                  Input& input, double step_mm, std::vector<std::string>& screenshots) {
   using K = haptics::PointerEvent::Kind;
-  for (bool button = false; !button && next < script.size() && script[next].time_s <= t_s; ++next) {
+  for (bool own_frame = false; !own_frame && next < script.size() && script[next].time_s <= t_s;
+       ++next) {
     const haptics::PointerEvent& e = script[next];
-    button = e.kind == K::kPress || e.kind == K::kRelease;
+    own_frame = e.kind == K::kPress || e.kind == K::kRelease || e.kind == K::kKeyDown;
     switch (e.kind) {
       case K::kMove:
         if (e.over_s > 0.0) {
@@ -209,16 +224,27 @@ render::Image read_window(int width, int height) {
 
 }  // namespace
 
-SculptWindow::SculptWindow(const engine::DensityField& field, const RenderSetup& setup,
-                           haptics::MouseDevice& device, SculptWindowOptions options)
-    : field_(field),
-      // The background thread may write the field while the render thread starts: the
-      // renderer is made from this copy, taken before any thread runs.
-      field_copy_(std::make_unique<engine::DensityField>(field.grid().deepCopy(),
-                                                         field.voxel_size_mm(), field.origin_mm(),
-                                                         field.dims(), field.direction())),
+// The render thread's state that outlives a segment: the window, its context and overlay,
+// the camera, the input and where the script is.
+struct SculptWindow::Session {
+  GLFWwindow* window = nullptr;
+  GLuint texture = 0;
+  Input input;
+  Callbacks callbacks{&input, 0.5};
+  std::unique_ptr<render::VolumeRenderer> renderer;  // this segment's volume
+  render::OrbitCamera camera;
+  Vector3d target = Vector3d::Zero();  // the tool's target, the renderer's frame
+  std::size_t next_event = 0;          // the script's next
+  // The script's clock: seconds of frames drawn, stopped between segments (a key's change
+  // takes as long as it takes; the strokes after it keep their pace).
+  double script_s = 0.0;
+};
+
+SculptWindow::SculptWindow(const engine::DensityField& frame, const RenderSetup& setup,
+                           SculptWindowOptions options)
+    : frame_(openvdb::FloatGrid::create(0.0f), frame.voxel_size_mm(), frame.origin_mm(),
+             frame.dims(), frame.direction()),
       setup_(setup),
-      device_(device),
       options_(std::move(options)) {
   // A window needs a display: say so now, before the session's files are made.
   const char* display = std::getenv("DISPLAY");
@@ -235,18 +261,29 @@ SculptWindow::SculptWindow(const engine::DensityField& field, const RenderSetup&
   glfwTerminate();
 }
 
-haptics::RenderLoop SculptWindow::loop() {
+SculptWindow::~SculptWindow() { close(); }
+
+haptics::RenderLoop SculptWindow::loop(const engine::DensityField& field,
+                                       haptics::MouseDevice& device, SculptSegmentSetup setup) {
+  // The background thread may write the field while the render thread starts: the
+  // renderer is made from this copy, taken before any thread runs.
+  field_copy_ =
+      std::make_unique<engine::DensityField>(field.grid().deepCopy(), field.voxel_size_mm(),
+                                             field.origin_mm(), field.dims(), field.direction());
+  device_ = &device;
+  segment_setup_ = std::move(setup);
+  segment_ = SculptSegmentReport{};
   return [this](haptics::RenderFeed& feed, haptics::RenderTiming& timing) {
     try {
       run(feed, timing);
     } catch (...) {
-      device_.request_end();  // the force loop must not outlive its window
+      device_->request_end();  // the force loop must not outlive its window
       throw;
     }
   };
 }
 
-void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing) {
+void SculptWindow::open() {
   glfwSetErrorCallback(on_glfw_error);
   if (glfwInit() != GLFW_TRUE) throw render::RenderError("GLFW: " + glfw_error());
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -257,129 +294,170 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
       glfwCreateWindow(options_.width, options_.height, "hapvox sculpt", nullptr, nullptr);
   if (window == nullptr) {
     glfwTerminate();
-    device_.request_end();
     throw render::RenderError("GLFW: cannot open a window with OpenGL 3.3: " + glfw_error());
   }
+  auto session = std::make_unique<Session>();
+  session->window = window;
+  session->callbacks.step_mm = options_.push_step_mm;
   glfwMakeContextCurrent(window);
   glfwSwapInterval(0);  // paced below; a vsync wait would hold input back
-  Input input;
-  Callbacks callbacks{&input, options_.push_step_mm};
-  glfwSetWindowUserPointer(window, &callbacks);
+  glfwSetWindowUserPointer(window, &session->callbacks);
   install_callbacks(window);
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini beside the user's files
   ImGui_ImplGlfw_InitForOpenGL(window, false);
   ImGui_ImplOpenGL3_Init("#version 330 core");
-  GLuint texture = 0;
-  glGenTextures(1, &texture);
-  // Closes everything in order however the loop ends (an error included); the renderer,
-  // made below, goes first while the context is still current.
-  struct Closer {
-    GLFWwindow* window;
-    GLuint* texture;
-    ~Closer() {
-      glDeleteTextures(1, texture);
-      ImGui_ImplOpenGL3_Shutdown();
-      ImGui_ImplGlfw_Shutdown();
-      ImGui::DestroyContext();
-      glfwDestroyWindow(window);
-      glfwTerminate();
-    }
-  } closer{window, &texture};
-
-  auto renderer = std::make_unique<render::VolumeRenderer>(
-      *field_copy_, render::TransferFunction::from_spec(setup_.transfer_spec));
-  render::OrbitCamera camera = render::OrbitCamera::framing(
-      field_.grid_min_mm(), field_.grid_max_mm(), setup_.azimuth_deg, setup_.elevation_deg);
-  render::RenderSettings settings = setup_.settings;
-  glBindTexture(GL_TEXTURE_2D, texture);
+  glGenTextures(1, &session->texture);
+  glBindTexture(GL_TEXTURE_2D, session->texture);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  session->camera = render::OrbitCamera::framing(frame_.grid_min_mm(), frame_.grid_max_mm(),
+                                                 setup_.azimuth_deg, setup_.elevation_deg);
+  session->target = frame_.world_to_grid(device_->start_mm());
+  session_ = std::move(session);
+}
 
-  const double radius = options_.tool_radius_mm;
-  const Eigen::Matrix3d to_grid = field_.direction().transpose();  // world -> grid vectors
-  // The tool's target (the renderer's frame) and the drag plane's point.
-  Vector3d target = field_.world_to_grid(device_.start_mm());
-  Vector3d drag_point = target;
+void SculptWindow::close() noexcept {
+  if (!session_) return;
+  Session& s = *session_;
+  // The last segment's thread let the context go; this one takes it to free what it holds.
+  glfwMakeContextCurrent(s.window);
+  s.renderer.reset();
+  glDeleteTextures(1, &s.texture);
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(s.window);
+  glfwTerminate();
+  session_.reset();
+}
+
+void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing) {
+  if (!session_) open();
+  Session& s = *session_;
+  glfwMakeContextCurrent(s.window);
+  // However the segment ends, this thread lets the context go: the next segment's render
+  // thread (or close()) takes it.
+  struct LetGo {
+    ~LetGo() { glfwMakeContextCurrent(nullptr); }
+  } let_go;
+  s.renderer = std::make_unique<render::VolumeRenderer>(
+      *field_copy_, render::TransferFunction::from_spec(setup_.transfer_spec));
+  Input& input = s.input;
+  input.press_pending = false;
+  input.segment_key.reset();
+  haptics::MouseDevice& device = *device_;
+
+  const double radius = segment_setup_.tool_radius_mm;
+  const Eigen::Matrix3d to_grid = frame_.direction().transpose();  // world -> grid vectors
+  Vector3d& target = s.target;   // the tool's target (the renderer's frame)
+  Vector3d drag_point = target;  // the drag plane's point
   bool dragging = false;
-  std::size_t next_event = 0;
   std::vector<std::string> screenshots;
-  const auto first_frame = Clock::now();
   const auto period = std::chrono::nanoseconds(std::llround(1e9 / options_.fps));
-  auto next = first_frame;
+  auto next = Clock::now();
   haptics::VoxelPatch patch;
+  Vector3d view = s.camera.view_direction();
+  auto can_undo = [&] {
+    return segment_setup_.can_undo || (segment_setup_.plastic && !segment_.press_ticks.empty());
+  };
+  const double segment_script_s = s.script_s;
+  const auto segment_start = Clock::now();
   while (true) {
     const bool finishing = feed.done.load(std::memory_order_acquire);
     const auto begin = Clock::now();
-    const double t_s = std::chrono::duration<double>(begin - first_frame).count();
+    const double t_s =
+        segment_script_s + std::chrono::duration<double>(begin - segment_start).count();
+    s.script_s = t_s;
     glfwPollEvents();
-    play_script(options_.script, next_event, t_s, input, options_.push_step_mm, screenshots);
-    if (glfwWindowShouldClose(window) || input.end_requested) device_.request_end();
+    // Once a key has ended the segment, the script waits for the next one: what it does next
+    // belongs to the changed tool or clay.
+    if (segment_.end == SegmentEnd::kQuit) {
+      play_script(options_.script, s.next_event, t_s, input, options_.push_step_mm, screenshots);
+    }
+    if (glfwWindowShouldClose(s.window) || input.end_requested) device.request_end();
+    // A key that changes the tool or the clay ends the segment, between strokes only.
+    if (input.segment_key) {
+      const bool allowed =
+          !dragging && !input.left_down && (*input.segment_key != SegmentEnd::kUndo || can_undo());
+      if (allowed && !input.end_requested && segment_.end == SegmentEnd::kQuit) {
+        segment_.end = *input.segment_key;
+        device.request_end();
+      }
+      input.segment_key.reset();
+    }
     while (feed.voxels.pop(patch)) {
-      renderer->set_voxel(patch.ijk, patch.density);
+      s.renderer->set_voxel(patch.ijk, patch.density);
       ++timing.voxels_applied;
     }
-    camera.azimuth_deg += input.orbit_deg[0];
-    camera.elevation_deg = std::clamp(camera.elevation_deg + input.orbit_deg[1], -85.0, 85.0);
+    s.camera.azimuth_deg += input.orbit_deg[0];
+    s.camera.elevation_deg = std::clamp(s.camera.elevation_deg + input.orbit_deg[1], -85.0, 85.0);
     input.orbit_deg[0] = input.orbit_deg[1] = 0.0;
 
     // The tool's target from the cursor: picking on what is drawn (Nakao §3.2).
     int window_w = 0, window_h = 0, frame_w = 0, frame_h = 0;
-    glfwGetWindowSize(window, &window_w, &window_h);
-    glfwGetFramebufferSize(window, &frame_w, &frame_h);
+    glfwGetWindowSize(s.window, &window_w, &window_h);
+    glfwGetFramebufferSize(s.window, &frame_w, &frame_h);
     window_w = std::max(window_w, 1), window_h = std::max(window_h, 1);
     frame_w = std::max(frame_w, 16), frame_h = std::max(frame_h, 16);
-    const Vector3d eye = camera.eye_mm(), view = camera.view_direction();
-    const Vector3d ray = camera.pixel_ray(static_cast<int>(input.cursor_x),
-                                          static_cast<int>(input.cursor_y), window_w, window_h);
+    const Vector3d eye = s.camera.eye_mm();
+    view = s.camera.view_direction();
+    const Vector3d ray = s.camera.pixel_ray(static_cast<int>(input.cursor_x),
+                                            static_cast<int>(input.cursor_y), window_w, window_h);
     const std::optional<Vector3d> hit =
-        render::pick_surface(renderer->volume(), eye, ray, options_.surface_density);
+        render::pick_surface(s.renderer->volume(), eye, ray, options_.surface_density);
+    const haptics::MouseFeedback felt = device.feedback();
     if (input.press_pending) {
       input.press_pending = false;
       ++report_.presses;
       if (!hit) ++report_.picks_missed;
+      segment_.press_ticks.push_back(std::max<std::int64_t>(felt.tick, 0));
       drag_point = hit ? *hit : target;  // nothing under the cursor: the tool's own depth
       input.push_mm = 0.0;
       dragging = true;
     }
+    // Clear of the material: the tool's whole sphere and a millimetre more, backed off
+    // towards the eye (render/pick.h), never a standoff that a narrow groove's far wall
+    // would touch.
+    const double clearance_mm = radius + 1.0;
+    const double reach_mm = 10.0 * radius + 20.0;
     if (!input.left_down && dragging) {
-      // The stroke ends: the tool lifts back out in front of the surface it was dragged on.
+      // The stroke ends: the tool lifts back out towards the eye.
       dragging = false;
-      // Along the view, far enough to clear a groove under an oblique view.
-      target -= (3.0 * radius + 2.0 + std::max(0.0, input.push_mm)) * view;
+      target = render::clear_of_material(s.renderer->volume(), target, -view, clearance_mm,
+                                         options_.surface_density, reach_mm);
       input.push_mm = 0.0;
-    }
-    if (dragging) {
+    } else if (dragging) {
       const double along = ray.dot(view);
       if (along > 1e-9) {
         const Vector3d on_plane = eye + ((drag_point - eye).dot(view) / along) * ray;
         target = on_plane + input.push_mm * view;
       }
     } else if (hit) {
-      // Hovering just clear of the surface under the cursor, along its normal (along the
-      // view where the density gives none).
-      Vector3d out = render::surface_normal(renderer->volume(), *hit);
-      if (out.isZero()) out = -view;
-      target = *hit + (radius + 2.0 + std::max(0.0, -input.push_mm)) * out;
+      // Hovering over the surface under the cursor (pulled further out by a negative push).
+      target = render::clear_of_material(s.renderer->volume(),
+                                         *hit + std::min(0.0, input.push_mm) * view, -view,
+                                         clearance_mm, options_.surface_density, reach_mm);
     }
-    device_.set_target(field_.grid_to_world(target), input.dead_man);
+    device.set_target(frame_.grid_to_world(target), input.dead_man);
 
     // The volume as the render thread's copy has it, the tool where the force thread put it.
     const haptics::RenderToolState tool = feed.tool.read();
     render::ToolPose pose;
     if (tool.tick >= 0) {
-      pose.center_mm = field_.world_to_grid(tool.center_mm);
+      pose.center_mm = frame_.world_to_grid(tool.center_mm);
       pose.radius_mm = radius;
       pose.displacement_mm = to_grid * tool.displacement_mm;
       pose.in_contact = tool.in_contact;
     }
+    render::RenderSettings settings = setup_.settings;
     settings.width = frame_w;
     settings.height = frame_h;
-    const render::Image image = renderer->render(camera, pose, settings);
-    glBindTexture(GL_TEXTURE_2D, texture);
+    const render::Image image = s.renderer->render(s.camera, pose, settings);
+    glBindTexture(GL_TEXTURE_2D, s.texture);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, image.width, image.height, 0, GL_RGBA,
                  GL_UNSIGNED_BYTE, image.rgba.data());
@@ -393,15 +471,14 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
     ImGui::NewFrame();
     const auto size = ImVec2(static_cast<float>(window_w), static_cast<float>(window_h));
     ImGui::GetBackgroundDrawList()->AddImage(
-        reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(texture)), ImVec2(0, 0), size);
+        reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(s.texture)), ImVec2(0, 0), size);
     // The force: an arrow from the tool's centre, and its magnitude beside the tip.
-    const haptics::MouseFeedback felt = device_.feedback();
     const Vector3d force_world(felt.force_n[0], felt.force_n[1], felt.force_n[2]);
     const double force_n = force_world.norm();
     if (tool.tick >= 0 && force_n > 1e-3) {
       const Vector3d tip = pose.center_mm + options_.arrow_mm_per_n * (to_grid * force_world);
-      const auto from = project(camera, pose.center_mm, window_w, window_h);
-      const auto to = project(camera, tip, window_w, window_h);
+      const auto from = project(s.camera, pose.center_mm, window_w, window_h);
+      const auto to = project(s.camera, tip, window_w, window_h);
       if (from && to) {
         ImDrawList* draw = ImGui::GetForegroundDrawList();
         const ImU32 colour = IM_COL32(255, 210, 40, 255);
@@ -429,21 +506,26 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
                 feed.loop.rate_hz.load(), feed.loop.p99_lateness_us.load(),
                 static_cast<unsigned long long>(feed.loop.missed.load()),
                 static_cast<unsigned long long>(feed.loop.watchdog_trips.load()));
-    ImGui::Text("model  %s  tool %.1f mm  mass %lld units  %s", options_.model_label.c_str(),
+    ImGui::Text("model  %s  tool %.1f mm  mass %lld units  %s", segment_setup_.model_label.c_str(),
                 2.0 * radius, static_cast<long long>(feed.loop.total_mass_units.load()),
                 felt.contact ? "contact" : "free");
     ImGui::Text("tool   %s  push %+.1f mm  tick %lld", dragging ? "dragging" : "hovering",
                 input.push_mm, static_cast<long long>(felt.tick));
+    ImGui::Text("keys   [ ] tool size  p plastic  %s  space dead-man  esc end",
+                can_undo() ? "z undo" : "(nothing to undo)");
     ImGui::End();
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-    if (finishing && !options_.screenshot.empty()) screenshots.push_back(options_.screenshot);
+    const bool last_of_session = finishing && segment_.end == SegmentEnd::kQuit;
+    if (last_of_session && !options_.screenshot.empty()) {
+      screenshots.push_back(options_.screenshot);
+    }
     for (const std::string& path : screenshots) {
       render::write_png(read_window(frame_w, frame_h), path);
       report_.screenshots.push_back(path);
     }
     screenshots.clear();
-    glfwSwapBuffers(window);
+    glfwSwapBuffers(s.window);
     ++report_.frames;
     timing.record_frame(feed.start, begin, tool.tick);
     if (finishing) break;
@@ -453,6 +535,12 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
           std::min<Clock::duration>(next - Clock::now(), std::chrono::milliseconds(2)));
     }
   }
+  // The next segment's tool starts where the force thread left this one's.
+  const haptics::MouseFeedback last = device.feedback();
+  segment_.last_position_mm =
+      last.tick >= 0 ? Vector3d(last.position_mm[0], last.position_mm[1], last.position_mm[2])
+                     : device.start_mm();
+  segment_.view_direction = frame_.direction() * view;
 }
 
 }  // namespace hapvox::cli

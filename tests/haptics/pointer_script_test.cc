@@ -66,7 +66,7 @@ TEST(PointerScript, EachBadLineIsNamedWithItsProblem) {
   EXPECT_EQ(error_of("1 move 3 nan\n"), "s.txt:1: the row 'nan' is not a number");
   EXPECT_EQ(error_of("1 press now\n"), "s.txt:1: 'press' takes nothing");
   EXPECT_EQ(error_of("1 key ctrl down\n"),
-            "s.txt:1: unknown key 'ctrl' (space, up, down, left, right, escape)");
+            "s.txt:1: unknown key 'ctrl' (space, up, down, left, right, escape, [, ], p, z)");
   EXPECT_EQ(error_of("1 key space held\n"), "s.txt:1: a key goes 'down' or 'up', not 'held'");
   EXPECT_EQ(error_of("1 screenshot shot.jpg\n"), "s.txt:1: a screenshot is a .png, not 'shot.jpg'");
   EXPECT_EQ(error_of("1 wheel \x01\n"), "s.txt:1: the steps '\\x01' is not a number");

@@ -12,6 +12,7 @@
 
 #include "haptics/session.h"
 #include "render/image.h"
+#include "session_compare.h"
 #include "test_data.h"
 
 namespace hapvox {
@@ -29,6 +30,14 @@ std::string attribute(const haptics::SessionInfo& info, const std::string& name)
     if (key == name) return value;
   }
   return "";
+}
+
+// The session's columns that hold the same on every tick of a lockstep replay.
+void expect_same_ticks(const std::string& live, const std::string& replayed) {
+  testing::expect_same_columns(
+      live, replayed,
+      {"/relax/total_mass_units", "/relax/deleted_voxels", "/relax/relaxed_voxels",
+       "/plastic/event", "/plastic/stress_pa", "/tool_position_mm", "/contact"});
 }
 
 TEST(SculptCli, ARealtimeWindowCarvesAGrooveThatItsTraceReplaysBitForBit) {
@@ -68,28 +77,115 @@ TEST(SculptCli, ARealtimeWindowCarvesAGrooveThatItsTraceReplaysBitForBit) {
       run_hapvox("replay " + dir + "/s.csv --volume block --plastic -q -o " + dir +
                  "/again.h5 --sculpt-out " + dir + "/again");
   ASSERT_EQ(again.exit_code, 0) << again.err;
-  for (const char* column : {"/relax/total_mass_units", "/relax/deleted_voxels",
-                             "/relax/relaxed_voxels", "/plastic/event", "/tool_position_mm"}) {
-    EXPECT_EQ(haptics::read_session_column(dir + "/s.h5", column),
-              haptics::read_session_column(dir + "/again.h5", column))
-        << column;
-  }
-  const std::vector<double> live_force = haptics::read_session_column(dir + "/s.h5", "/force_n");
-  const std::vector<double> again_force =
-      haptics::read_session_column(dir + "/again.h5", "/force_n");
-  const std::vector<double> live_scale =
-      haptics::read_session_column(dir + "/s.h5", "/force_scale");
-  const std::vector<double> again_scale =
-      haptics::read_session_column(dir + "/again.h5", "/force_scale");
-  ASSERT_EQ(live_force.size(), again_force.size());
-  std::size_t same_ramp = 0;
-  for (std::size_t k = 0; k < live_scale.size(); ++k) {
-    if (live_scale[k] != again_scale[k]) continue;
-    ++same_ramp;
-    for (int a = 0; a < 3; ++a) ASSERT_EQ(live_force[3 * k + a], again_force[3 * k + a]) << k;
-  }
-  EXPECT_GE(same_ramp, 500u);  // watchdog trips on a loaded machine ramp ~200 ticks each
+  expect_same_ticks(dir + "/s.h5", dir + "/again.h5");
+  // Watchdog trips on a loaded machine ramp ~200 ticks each.
+  EXPECT_GE(testing::expect_same_forces_at_same_ramp(dir + "/s.h5", dir + "/again.h5"), 200u);
   EXPECT_EQ(testing::read_file(dir + "/live.nrrd"), testing::read_file(dir + "/again.nrrd"));
+}
+
+double column_sum(const std::string& session, const std::string& column) {
+  double sum = 0.0;
+  for (const double v : haptics::read_session_column(session, column)) sum += v;
+  return sum;
+}
+
+TEST(SculptCli, KeysSplitTheSessionIntoSegmentsThatEachReplayAndUndoRestoresTheClay) {
+  const std::string dir = scratch_dir();
+  // A groove; ] (a larger tool); a second stroke; z (undo it); p (plastic off); a press.
+  std::ofstream(dir + "/keys.script") << "0.5 move 330 330\n"
+                                         "1.0 press\n"
+                                         "1.2 move 480 360 2.0\n"
+                                         "3.4 wheel -10\n"
+                                         "3.6 release\n"
+                                         "3.6 move 700 560 0.3\n"
+                                         "4.3 key ] down\n"
+                                         "4.35 key ] up\n"
+                                         "5.5 move 330 400\n"
+                                         "6.0 press\n"
+                                         "6.2 move 480 430 1.5\n"
+                                         "7.8 wheel -10\n"
+                                         "8.0 release\n"
+                                         "8.0 move 700 560 0.3\n"
+                                         "8.7 key z down\n"
+                                         "8.75 key z up\n"
+                                         "10.1 key p down\n"
+                                         "10.15 key p up\n"
+                                         "11.0 move 400 380\n"
+                                         "11.3 press\n"
+                                         "11.8 release\n"
+                                         "11.8 move 700 560 0.3\n"
+                                         "12.4 quit\n";
+  const testing::CommandResult sculpt =
+      run_hapvox_env(kXvfb, "sculpt block --script " + dir + "/keys.script -o " + dir +
+                                "/s.h5 --sculpt-out " + dir + "/live -q --no-mlock");
+  ASSERT_EQ(sculpt.exit_code, 0) << sculpt.err << sculpt.out;
+  EXPECT_NE(sculpt.out.find("3 strokes (0 picked nothing)"), std::string::npos) << sculpt.out;
+  EXPECT_NE(sculpt.out.find("segments         4,"), std::string::npos) << sculpt.out;
+  const std::string s[] = {dir + "/s", dir + "/s-2", dir + "/s-3", dir + "/s-4"};
+  const std::string volume[] = {"block", s[1] + "-start.vdb", s[2] + "-start.vdb",
+                                s[3] + "-start.vdb"};
+  const char* ended[] = {"tool 8.0 mm, plastic, ended by ] (a larger tool)",
+                         "tool 10.0 mm, plastic, ended by z (undo)",
+                         "tool 10.0 mm, plastic, ended by p (plastic on/off)",
+                         "tool 10.0 mm, elastic, ended by the end of the session"};
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_NE(sculpt.out.find(s[k] + ".h5: " + ended[k]), std::string::npos) << sculpt.out;
+  }
+  // The last segment's own start file is the only one not kept past the session.
+  EXPECT_FALSE(std::filesystem::exists(dir + "/s-5-start.vdb"));
+
+  // Each segment, replayed in lockstep on the clay it started from with its tool, takes the
+  // same ticks; the mass is the block's in every one of them (the undo's too).
+  const haptics::SessionInfo first = haptics::read_session_info(s[0] + ".h5");
+  const std::string block_mass = attribute(first, "summary_initial_mass_units");
+  for (int k = 0; k < 4; ++k) {
+    const bool plastic = k < 3;
+    const haptics::SessionInfo info = haptics::read_session_info(s[k] + ".h5");
+    EXPECT_EQ(attribute(info, "volume"), volume[k]);
+    EXPECT_EQ(attribute(info, "tool_diameter_mm"), k == 0 ? "8" : "10");
+    EXPECT_EQ(attribute(info, "plastic"), plastic ? "1" : "0");
+    if (plastic) {
+      EXPECT_EQ(attribute(info, "summary_initial_mass_units"), block_mass) << k;
+      EXPECT_EQ(attribute(info, "summary_final_mass_units"), block_mass) << k;
+    }
+    const testing::CommandResult again =
+        run_hapvox("replay " + s[k] + ".csv --volume " + volume[k] + (plastic ? " --plastic" : "") +
+                   " --tool-diameter-mm " + (k == 0 ? "8" : "10") + " -q -o " + dir + "/again.h5" +
+                   (plastic ? " --sculpt-out " + dir + "/again" + std::to_string(k) : ""));
+    ASSERT_EQ(again.exit_code, 0) << again.err;
+    expect_same_ticks(s[k] + ".h5", dir + "/again.h5");
+  }
+  // Segment 1's clay at its end is the clay segment 2 started from, byte for byte; segment
+  // 3's is the clay the session ended with (segment 4 was elastic).
+  EXPECT_EQ(testing::read_file(dir + "/again0.nrrd"), testing::read_file(s[1] + "-start.nrrd"));
+  EXPECT_EQ(testing::read_file(dir + "/again2.nrrd"), testing::read_file(s[3] + "-start.nrrd"));
+  EXPECT_EQ(testing::read_file(dir + "/again2.nrrd"), testing::read_file(dir + "/live.nrrd"));
+  EXPECT_GT(column_sum(s[0] + ".h5", "/relax/deleted_voxels"), 1000.0);  // the groove
+  const double second_stroke = column_sum(s[1] + ".h5", "/relax/deleted_voxels");
+  EXPECT_GT(second_stroke, 1000.0);
+  EXPECT_EQ(column_sum(s[3] + ".h5", "/relax/deleted_voxels"), 0.0);  // elastic
+  EXPECT_GT(column_sum(s[3] + ".h5", "/contact"), 10.0);              // ... but pressed
+
+  // Undo: segment 3 starts from segment 2's replay up to the tick its stroke began.
+  const std::string said = "undo: the clay before the stroke at tick ";
+  const std::size_t at = sculpt.out.find(said);
+  ASSERT_NE(at, std::string::npos) << sculpt.out;
+  const long long press_tick = std::stoll(sculpt.out.substr(at + said.size()));
+  EXPECT_NE(sculpt.out.find(" of segment 2 (", at), std::string::npos);
+  std::ifstream trace(s[1] + ".csv");
+  std::ofstream before_press(dir + "/before_press.csv");
+  std::string line;
+  for (long long rows = -1; rows < press_tick && std::getline(trace, line); ++rows) {
+    before_press << line << "\n";  // the header, then the first press_tick ticks
+  }
+  before_press.close();
+  const testing::CommandResult undo = run_hapvox(
+      "replay " + dir + "/before_press.csv --volume " + volume[1] +
+      " --plastic --tool-diameter-mm 10 -q -o " + dir + "/undo.h5 --sculpt-out " + dir + "/undo");
+  ASSERT_EQ(undo.exit_code, 0) << undo.err;
+  EXPECT_EQ(testing::read_file(dir + "/undo.nrrd"), testing::read_file(s[2] + "-start.nrrd"));
+  // ... which the stroke had not yet carved.
+  EXPECT_LT(column_sum(dir + "/undo.h5", "/relax/deleted_voxels"), 0.5 * second_stroke);
 }
 
 TEST(SculptCli, BadInputIsOneLineAndMakesNoFile) {
