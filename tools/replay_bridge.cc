@@ -3,6 +3,8 @@
 
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
+#include <system_error>
 
 #include "engine/errors.h"
 #include "tools/replay_command.h"
@@ -13,6 +15,13 @@ namespace {
 std::atomic<bool> g_stop_requested{false};
 
 extern "C" void request_stop(int) { g_stop_requested.store(true); }
+
+// Packets refused for any reason (PacketError 0 is none).
+std::uint64_t malformed_total(const haptics::BridgeCounters& c) {
+  std::uint64_t malformed = 0;
+  for (int e = 1; e < haptics::kPacketErrorCount; ++e) malformed += c.malformed[e];
+  return malformed;
+}
 
 }  // namespace
 
@@ -53,6 +62,9 @@ void write_recorded_trace(const std::string& session_path, const std::string& tr
   if (trace.time_s.size() < 2) {
     std::fprintf(stderr, "hapvox: warning: --trace-out: %zu ticks, no trace written\n",
                  trace.time_s.size());
+    // An earlier session's trace there would pass for this one's.
+    std::error_code ignored;
+    std::filesystem::remove(trace_path, ignored);
     return;
   }
   haptics::write_csv_trace(trace, trace_path);
@@ -89,16 +101,14 @@ void write_bridge_attributes(haptics::SessionWriter& session, const haptics::Bri
   count("late", c.late);
   count("duplicates", c.duplicates);
   count("lost", c.lost);
-  std::uint64_t malformed = 0;
   for (int e = 1; e < haptics::kPacketErrorCount; ++e) {
-    malformed += c.malformed[e];
     std::string name = haptics::packet_error_name(static_cast<haptics::PacketError>(e));
     for (char& ch : name) {
       if (ch == ' ') ch = '_';
     }
     count(("malformed_" + name).c_str(), c.malformed[e]);
   }
-  count("malformed", malformed);
+  count("malformed", malformed_total(c));
   count("held_ticks", c.held_ticks);
   count("silent_ticks", c.silent_ticks);
   count("silences", c.silences);
@@ -120,8 +130,7 @@ void write_bridge_attributes(haptics::SessionWriter& session, const haptics::Bri
 
 void print_bridge_lines(const haptics::BridgeDevice& device) {
   const haptics::BridgeCounters& c = device.counters();
-  std::uint64_t malformed = 0;
-  for (int e = 1; e < haptics::kPacketErrorCount; ++e) malformed += c.malformed[e];
+  const std::uint64_t malformed = malformed_total(c);
   std::printf(
       "  bridge           %llu datagrams: %llu fresh, %llu late, %llu duplicates, %llu lost, "
       "%llu malformed; %llu ticks held, %llu silent (%llu silences)%s\n",
