@@ -48,17 +48,8 @@ void MouseDevice::read(std::size_t tick, DeviceReading& reading) {
 
 void MouseDevice::send(std::size_t tick, const Vec3d& force_device_n, const TickRecord& row,
                        bool fault) {
-  (void)fault;
-  MouseFeedback feedback;
-  feedback.tick = static_cast<std::int64_t>(tick);
-  for (int a = 0; a < 3; ++a) {
-    feedback.position_mm[a] = row.tool_position_mm[a];
-    feedback.force_n[a] = force_device_n[a];
-  }
-  feedback.force_scale = row.force_scale;
-  feedback.contact = row.contact != 0;
-  feedback.released = released_;
-  feedback_.write(feedback);
+  (void)force_device_n, (void)fault;  // the identity transform: the row's force is it
+  feedback_.write(feedback_of(tick, row, released_));
 }
 
 }  // namespace hapvox::haptics

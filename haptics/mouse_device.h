@@ -4,8 +4,8 @@
 // tools/sculpt_window.h); the force thread moves the tool towards it by at most
 // max_speed_mm_s per tick, so a cursor that jumps across the view never steps the tool (or
 // the force). The loop's clock paces it, as a replayed trace; it runs until the window ends
-// the session. What the force thread sent comes back to the window as MouseFeedback (the
-// force arrow, the overlay's numbers).
+// the session. What the force thread sent comes back to the window as DeviceFeedback (the
+// force arrow, the overlay's numbers; haptics/watched_device.h).
 //
 // Threads: set_target and request_end from one window thread; read, send and finished from
 // the force thread (no locks, no allocation: seqlocks); feedback from any thread.
@@ -13,8 +13,8 @@
 #include <atomic>
 #include <cstdint>
 
-#include "haptics/device.h"
 #include "haptics/seqlock.h"
+#include "haptics/watched_device.h"
 
 namespace hapvox::haptics {
 
@@ -24,17 +24,7 @@ struct MouseDeviceOptions {
   Vec3d start_mm = Vec3d::Zero();  // the tool's position before any target (volume mm)
 };
 
-/// What the force thread did with the last tick, for the window.
-struct MouseFeedback {
-  std::int64_t tick = -1;             // -1: no tick yet
-  double position_mm[3] = {0, 0, 0};  // the tool's centre (volume mm)
-  double force_n[3] = {0, 0, 0};      // sent: finite, clamped, ramped
-  double force_scale = 0.0;           // the ramp factor it was sent with
-  bool contact = false;
-  bool released = false;  // the dead-man was released on that tick
-};
-
-class MouseDevice final : public Device {
+class MouseDevice final : public WatchedDevice {
  public:
   explicit MouseDevice(const MouseDeviceOptions& options);
 
@@ -42,8 +32,8 @@ class MouseDevice final : public Device {
   /// The tool's target (volume mm); `released`: the dead-man is released (force ramps out).
   void set_target(const Vec3d& target_mm, bool released) noexcept;
   /// Ends the session: the loop stops before its next tick.
-  void request_end() noexcept { end_.store(true); }
-  MouseFeedback feedback() const noexcept { return feedback_.read(); }
+  void request_end() noexcept override { end_.store(true); }
+  DeviceFeedback feedback() const noexcept override { return feedback_.read(); }
   /// Where the tool starts (volume mm).
   const Vec3d& start_mm() const noexcept { return options_.start_mm; }
 
@@ -72,7 +62,7 @@ class MouseDevice final : public Device {
   Vec3d position_mm_;      // force thread only
   bool released_ = false;  // force thread only: the last reading's
   Seqlock<Target> target_;
-  Seqlock<MouseFeedback> feedback_;
+  Seqlock<DeviceFeedback> feedback_;
   std::atomic<std::uint64_t> targets_set_{0};
   std::atomic<bool> end_{false};
 };

@@ -220,7 +220,11 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     throw;
   }
   write_summary_attributes(session, f, s, timing);
-  if (bridge) write_bridge_attributes(session, *bridge);
+  // The bridge, ours or behind a window's device (sculpt --device).
+  const haptics::BridgeDevice* bridged = bridge                   ? bridge.get()
+                                         : f.front_end != nullptr ? f.front_end->bridge
+                                                                  : nullptr;
+  if (bridged != nullptr) write_bridge_attributes(session, *bridged);
   if (f.realtime && f.plastic) {
     session.set_attribute("summary_relax_slice_p50_us", timing.relax_slice.p50_us);
     session.set_attribute("summary_relax_slice_p99_us", timing.relax_slice.p99_us);
@@ -276,7 +280,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                   f.sculpt_out.c_str());
     }
   }
-  if (bridge) print_bridge_lines(*bridge);
+  if (bridged != nullptr) print_bridge_lines(*bridged);
   if (recorder) print_render_line(f, *recorder, timing);
   print_run_footer(s);
   print_warnings(warnings);
@@ -286,14 +290,17 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
 namespace {
 
 // --device and the bridge's flags.
-void add_live_flags(CLI::App* cmd, ReplayFlags* flags) {
+// (sculpt registers its own --trace-out: `with_trace_out` false.)
+void add_live_flags(CLI::App* cmd, ReplayFlags* flags, bool with_trace_out) {
   cmd->add_option("--device", flags->device,
                   "udp:HOST:PORT: take the tool from a live device program through the bridge "
                   "(docs/formats.md: Device bridge packets; hapvox device-sim is its reference "
                   "client) instead of a trace; needs --realtime");
-  cmd->add_option("--trace-out", flags->trace_out,
-                  "--device: write the positions the session's ticks used as a CSV trace "
-                  "(replaying it in lockstep steps the model through them again)");
+  if (with_trace_out) {
+    cmd->add_option("--trace-out", flags->trace_out,
+                    "--device: write the positions the session's ticks used as a CSV trace "
+                    "(replaying it in lockstep steps the model through them again)");
+  }
   cmd->add_option("--silence-timeout-s", flags->silence_timeout_s,
                   "--device: no position for this long and the force ramps out")
       ->capture_default_str();
@@ -307,9 +314,9 @@ void add_live_flags(CLI::App* cmd, ReplayFlags* flags) {
 void add_replay_flags(CLI::App* cmd, ReplayFlags* flags, bool with_inputs) {
   if (with_inputs) {
     cmd->add_option("trace", flags->trace_path, "Trace file (.csv or .h5); or --device");
-    add_live_flags(cmd, flags);
     cmd->add_option("--volume,-v", flags->volume, volume_help())->required();
   }
+  add_live_flags(cmd, flags, with_inputs);
   cmd->add_option("--max-force-n", flags->limits.max_force_n, "Device force limit, N")
       ->capture_default_str();
   cmd->add_option("--ramp-in-s", flags->limits.ramp_in_s, "Force ramp-in time at start, s")

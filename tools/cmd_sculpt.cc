@@ -2,7 +2,8 @@
 // a window where the mouse drags the tool over the volume (tools/sculpt_window.h) while the
 // force loop runs at 1 kHz beside the relaxation, as `replay --realtime` runs them. On exit
 // it writes the session and the trace of the positions its ticks used: `hapvox replay` of
-// that trace in lockstep steps the model through the same positions again.
+// that trace in lockstep steps the model through the same positions again. With --device
+// udp:HOST:PORT a device program moves the tool through the bridge and the window watches.
 //
 // Keys that change the tool ([ ]), the clay's plasticity (p) or undo a stroke (z) end a
 // segment: each segment is one realtime run with its own session, trace and starting clay
@@ -22,6 +23,7 @@
 #include "haptics/mouse_device.h"
 #include "haptics/pointer_script.h"
 #include "haptics/trace.h"
+#include "haptics/watched_device.h"
 #include "tools/cli.h"
 #include "tools/replay_command.h"
 #include "tools/sculpt_window.h"
@@ -194,14 +196,23 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
   check_segment_outputs(1);
 
   std::unique_ptr<SculptWindow> window;
-  haptics::MouseDevice* mouse = nullptr;
-  std::optional<Eigen::Vector3d> start_mm;  // where the next segment's tool starts
+  haptics::MouseDevice* mouse = nullptr;          // the window moves the tool
+  haptics::WatchedDevice* watched = nullptr;      // the mouse, or the bridge watched
+  std::unique_ptr<haptics::BridgeDevice> bridge;  // --device: a device program moves it
+  std::optional<Eigen::Vector3d> start_mm;        // where the next segment's tool starts
   std::string model_label;
   bool can_undo = false;
   bool segment_plastic = f.plastic;
   LiveFrontEnd front_end;
-  front_end.name = "mouse";
+  front_end.name = f.device.empty() ? "mouse" : f.device;
   front_end.make_device = [&](const engine::DensityField& field, double tool_radius_mm) {
+    if (!f.device.empty()) {
+      bridge = make_bridge_device(f, f.transform.resolve_fixed());
+      front_end.bridge = bridge.get();
+      auto device = std::make_unique<haptics::ObservedDevice>(*bridge);
+      watched = device.get();
+      return std::unique_ptr<haptics::Device>(std::move(device));
+    }
     // The tool starts above the middle of the volume's top, clear of it; a later segment
     // where the last one left it.
     const Eigen::Vector3d lo = field.world_min_mm(), hi = field.world_max_mm();
@@ -213,6 +224,7 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
                                                   hi.z() + tool_radius_mm + 2.0);
     auto device = std::make_unique<haptics::MouseDevice>(options);
     mouse = device.get();
+    watched = mouse;
     return std::unique_ptr<haptics::Device>(std::move(device));
   };
   front_end.make_render_loop = [&](const engine::DensityField& field, haptics::Device&,
@@ -232,7 +244,8 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
     segment.model_label = model_label;
     segment.plastic = segment_plastic;
     segment.can_undo = can_undo;
-    return window->loop(field, *mouse, segment);
+    segment.device_label = front_end.name;
+    return window->loop(field, *watched, mouse, segment);
   };
   end_session_on_signals();  // Ctrl-C in the terminal ends the session as Escape does
 

@@ -31,6 +31,9 @@ struct LiveFrontEnd {
   std::function<haptics::RenderLoop(const engine::DensityField& field, haptics::Device& device,
                                     double tool_radius_mm)>
       make_render_loop;
+  /// With --device: the bridge behind the window's device, set by make_device (its counts
+  /// go in the session and the report as a `replay --device` run's do).
+  const haptics::BridgeDevice* bridge = nullptr;
 };
 
 struct ReplayFlags {

@@ -264,13 +264,15 @@ SculptWindow::SculptWindow(const engine::DensityField& frame, const RenderSetup&
 SculptWindow::~SculptWindow() { close(); }
 
 haptics::RenderLoop SculptWindow::loop(const engine::DensityField& field,
-                                       haptics::MouseDevice& device, SculptSegmentSetup setup) {
+                                       haptics::WatchedDevice& device, haptics::MouseDevice* mouse,
+                                       SculptSegmentSetup setup) {
   // The background thread may write the field while the render thread starts: the
   // renderer is made from this copy, taken before any thread runs.
   field_copy_ =
       std::make_unique<engine::DensityField>(field.grid().deepCopy(), field.voxel_size_mm(),
                                              field.origin_mm(), field.dims(), field.direction());
   device_ = &device;
+  mouse_ = mouse;
   segment_setup_ = std::move(setup);
   segment_ = SculptSegmentReport{};
   return [this](haptics::RenderFeed& feed, haptics::RenderTiming& timing) {
@@ -316,7 +318,8 @@ void SculptWindow::open() {
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   session->camera = render::OrbitCamera::framing(frame_.grid_min_mm(), frame_.grid_max_mm(),
                                                  setup_.azimuth_deg, setup_.elevation_deg);
-  session->target = frame_.world_to_grid(device_->start_mm());
+  session->target = mouse_ != nullptr ? frame_.world_to_grid(mouse_->start_mm())
+                                      : 0.5 * (frame_.grid_min_mm() + frame_.grid_max_mm());
   session_ = std::move(session);
 }
 
@@ -349,7 +352,7 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
   Input& input = s.input;
   input.press_pending = false;
   input.segment_key.reset();
-  haptics::MouseDevice& device = *device_;
+  haptics::WatchedDevice& device = *device_;
 
   const double radius = segment_setup_.tool_radius_mm;
   const Eigen::Matrix3d to_grid = frame_.direction().transpose();  // world -> grid vectors
@@ -364,25 +367,30 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
   auto can_undo = [&] {
     return segment_setup_.can_undo || (segment_setup_.plastic && !segment_.press_ticks.empty());
   };
+  // The script's clock runs from the first frame that sees a tick: a force loop slow to
+  // start (a loaded machine) must not find the strokes over before its first tick.
   const double segment_script_s = s.script_s;
-  const auto segment_start = Clock::now();
+  std::optional<Clock::time_point> segment_start;
   while (true) {
     const bool finishing = feed.done.load(std::memory_order_acquire);
     const auto begin = Clock::now();
+    if (!segment_start && feed.tool.read().tick >= 0) segment_start = begin;
     const double t_s =
-        segment_script_s + std::chrono::duration<double>(begin - segment_start).count();
+        segment_script_s +
+        (segment_start ? std::chrono::duration<double>(begin - *segment_start).count() : 0.0);
     s.script_s = t_s;
     glfwPollEvents();
     // Once a key has ended the segment, the script waits for the next one: what it does next
     // belongs to the changed tool or clay.
-    if (segment_.end == SegmentEnd::kQuit) {
+    if (segment_start && segment_.end == SegmentEnd::kQuit) {
       play_script(options_.script, s.next_event, t_s, input, options_.push_step_mm, screenshots);
     }
     if (glfwWindowShouldClose(s.window) || input.end_requested) device.request_end();
     // A key that changes the tool or the clay ends the segment, between strokes only.
     if (input.segment_key) {
-      const bool allowed =
-          !dragging && !input.left_down && (*input.segment_key != SegmentEnd::kUndo || can_undo());
+      // A device program moving the tool (--device) holds the session: no segments.
+      const bool allowed = mouse_ != nullptr && !dragging && !input.left_down &&
+                           (*input.segment_key != SegmentEnd::kUndo || can_undo());
       if (allowed && !input.end_requested && segment_.end == SegmentEnd::kQuit) {
         segment_.end = *input.segment_key;
         device.request_end();
@@ -409,7 +417,8 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
                                             static_cast<int>(input.cursor_y), window_w, window_h);
     const std::optional<Vector3d> hit =
         render::pick_surface(s.renderer->volume(), eye, ray, options_.surface_density);
-    const haptics::MouseFeedback felt = device.feedback();
+    const haptics::DeviceFeedback felt = device.feedback();
+    if (input.press_pending && mouse_ == nullptr) input.press_pending = false;  // not ours
     if (input.press_pending) {
       input.press_pending = false;
       ++report_.presses;
@@ -442,7 +451,7 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
                                          *hit + std::min(0.0, input.push_mm) * view, -view,
                                          clearance_mm, options_.surface_density, reach_mm);
     }
-    device.set_target(frame_.grid_to_world(target), input.dead_man);
+    if (mouse_ != nullptr) mouse_->set_target(frame_.grid_to_world(target), input.dead_man);
 
     // The volume as the render thread's copy has it, the tool where the force thread put it.
     const haptics::RenderToolState tool = feed.tool.read();
@@ -509,10 +518,16 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
     ImGui::Text("model  %s  tool %.1f mm  mass %lld units  %s", segment_setup_.model_label.c_str(),
                 2.0 * radius, static_cast<long long>(feed.loop.total_mass_units.load()),
                 felt.contact ? "contact" : "free");
-    ImGui::Text("tool   %s  push %+.1f mm  tick %lld", dragging ? "dragging" : "hovering",
-                input.push_mm, static_cast<long long>(felt.tick));
-    ImGui::Text("keys   [ ] tool size  p plastic  %s  space dead-man  esc end",
-                can_undo() ? "z undo" : "(nothing to undo)");
+    if (mouse_ != nullptr) {
+      ImGui::Text("tool   %s  push %+.1f mm  tick %lld", dragging ? "dragging" : "hovering",
+                  input.push_mm, static_cast<long long>(felt.tick));
+      ImGui::Text("keys   [ ] tool size  p plastic  %s  space dead-man  esc end",
+                  can_undo() ? "z undo" : "(nothing to undo)");
+    } else {
+      ImGui::Text("tool   moved by %s  tick %lld", segment_setup_.device_label.c_str(),
+                  static_cast<long long>(felt.tick));
+      ImGui::Text("keys   left/right orbit  esc end");
+    }
     ImGui::End();
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
@@ -536,10 +551,10 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
     }
   }
   // The next segment's tool starts where the force thread left this one's.
-  const haptics::MouseFeedback last = device.feedback();
+  const haptics::DeviceFeedback last = device.feedback();
   segment_.last_position_mm =
       last.tick >= 0 ? Vector3d(last.position_mm[0], last.position_mm[1], last.position_mm[2])
-                     : device.start_mm();
+                     : frame_.grid_to_world(target);
   segment_.view_direction = frame_.direction() * view;
 }
 

@@ -34,6 +34,7 @@
 #include "haptics/mouse_device.h"
 #include "haptics/pointer_script.h"
 #include "haptics/render_feed.h"
+#include "haptics/watched_device.h"
 #include "tools/render_output.h"
 
 namespace hapvox::cli {
@@ -51,9 +52,10 @@ struct SculptWindowOptions {
 /// What one segment runs with.
 struct SculptSegmentSetup {
   double tool_radius_mm = 4.0;
-  std::string model_label = "voxel";  // the overlay's model line
-  bool plastic = true;                // the segment sculpts: its strokes can be undone
-  bool can_undo = false;              // an earlier segment's plastic stroke is there to undo
+  std::string model_label = "voxel";   // the overlay's model line
+  bool plastic = true;                 // the segment sculpts: its strokes can be undone
+  bool can_undo = false;               // an earlier segment's plastic stroke is there to undo
+  std::string device_label = "mouse";  // without a mouse: what moves the tool (the overlay)
 };
 
 /// Why the window ended a segment (tools/cmd_sculpt.cc starts the next one, or stops).
@@ -89,9 +91,12 @@ class SculptWindow {
   /// The render loop of one segment for haptics::replay_realtime: opens the window (the
   /// first time) or takes it over, draws `field` (copied now, before any thread runs) and
   /// the tool `device` moves until the feed is done, then a last frame (and, at the end of
-  /// the session, the --screenshot). `device` must outlive the loop.
-  haptics::RenderLoop loop(const engine::DensityField& field, haptics::MouseDevice& device,
-                           SculptSegmentSetup setup);
+  /// the session, the --screenshot). `mouse`, when the device is one, takes the cursor's
+  /// targets; without it (a device program moves the tool, --device) the window draws,
+  /// orbits and ends the session, and takes no strokes or segment keys. Both must outlive
+  /// the loop.
+  haptics::RenderLoop loop(const engine::DensityField& field, haptics::WatchedDevice& device,
+                           haptics::MouseDevice* mouse, SculptSegmentSetup setup);
 
   /// Closes the window (on the calling thread, once no segment runs).
   void close() noexcept;
@@ -110,7 +115,8 @@ class SculptWindow {
   std::unique_ptr<Session> session_;
   // This segment's.
   std::unique_ptr<engine::DensityField> field_copy_;
-  haptics::MouseDevice* device_ = nullptr;
+  haptics::WatchedDevice* device_ = nullptr;
+  haptics::MouseDevice* mouse_ = nullptr;  // null: a device program moves the tool
   SculptSegmentSetup segment_setup_;
   SculptSegmentReport segment_;
   SculptWindowReport report_;

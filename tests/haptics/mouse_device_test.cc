@@ -73,8 +73,9 @@ TEST(MouseDevice, TheDeadManTheEndAndTheFeedbackReachTheirThreads) {
   row.tool_position_mm = Vec3d(1.0, 2.0, 3.0);
   row.force_scale = 0.5;
   row.contact = 1;
-  device.send(2, Vec3d(0.0, 0.0, 1.25), row, false);
-  const MouseFeedback feedback = device.feedback();
+  row.force_n = Vec3d(0.0, 0.0, 1.25);
+  device.send(2, row.force_n, row, false);
+  const DeviceFeedback feedback = device.feedback();
   EXPECT_EQ(feedback.tick, 2);
   EXPECT_EQ(feedback.force_n[2], 1.25);
   EXPECT_EQ(feedback.position_mm[1], 2.0);

@@ -16,6 +16,7 @@
 #include "engine/errors.h"
 #include "haptics/session.h"
 #include "haptics/udp_socket.h"
+#include "loopback_port.h"
 #include "session_compare.h"
 #include "test_data.h"
 
@@ -25,20 +26,8 @@ namespace {
 using testing::run_hapvox;
 using testing::scratch_dir;
 
-// A loopback port free now (the system's pick), for a process to listen on next.
-std::uint16_t free_port() {
-  return haptics::UdpSocket::bound({"127.0.0.1", 0}, "test").local_port();
-}
-
-// True once something listens on `port` (binding it fails).
-bool listening(std::uint16_t port) {
-  try {
-    haptics::UdpSocket::bound({"127.0.0.1", port}, "test");
-    return false;
-  } catch (const InputError&) {
-    return true;
-  }
-}
+using testing::free_port;
+using testing::listening;
 
 struct Answer {
   bool answered = false;

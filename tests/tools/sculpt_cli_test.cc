@@ -5,12 +5,15 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "haptics/session.h"
+#include "loopback_port.h"
 #include "render/image.h"
 #include "session_compare.h"
 #include "test_data.h"
@@ -38,6 +41,20 @@ void expect_same_ticks(const std::string& live, const std::string& replayed) {
       live, replayed,
       {"/relax/total_mass_units", "/relax/deleted_voxels", "/relax/relaxed_voxels",
        "/plastic/event", "/plastic/stress_pa", "/tool_position_mm", "/contact"});
+}
+
+// DIR/s.csv, the trace of the session DIR/s.h5 on the plastic block (its clay written as
+// DIR/live), replayed in lockstep: the same ticks, the same forces wherever the same ramp
+// was sent, the same clay byte for byte.
+void expect_trace_replays_session(const std::string& dir) {
+  const testing::CommandResult again =
+      run_hapvox("replay " + dir + "/s.csv --volume block --plastic -q -o " + dir +
+                 "/again.h5 --sculpt-out " + dir + "/again");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  expect_same_ticks(dir + "/s.h5", dir + "/again.h5");
+  // Watchdog trips on a loaded machine ramp ~200 ticks each.
+  EXPECT_GE(testing::expect_same_forces_at_same_ramp(dir + "/s.h5", dir + "/again.h5"), 200u);
+  EXPECT_EQ(testing::read_file(dir + "/live.nrrd"), testing::read_file(dir + "/again.nrrd"));
 }
 
 TEST(SculptCli, ARealtimeWindowCarvesAGrooveThatItsTraceReplaysBitForBit) {
@@ -68,19 +85,14 @@ TEST(SculptCli, ARealtimeWindowCarvesAGrooveThatItsTraceReplaysBitForBit) {
   ASSERT_EQ(before.width, 800);
   ASSERT_EQ(before.height, 600);
   ASSERT_EQ(after.width, 800);
-  EXPECT_GT(render::mean_abs_difference(before, after, 300, 250, 550, 450), 4.0);
+  // Where the groove starts (however far the tool got: in paced lockstep under a sanitizer
+  // the ticks, and so the tool, fall behind the cursor), the window changed.
+  EXPECT_GT(render::mean_abs_difference(before, after, 310, 310, 420, 350), 10.0);
   // Far from the stroke (the bottom corners) nothing changed.
   EXPECT_LT(render::mean_abs_difference(before, after, 0, 560, 80, 600), 0.5);
 
   // The trace it wrote, replayed in lockstep.
-  const testing::CommandResult again =
-      run_hapvox("replay " + dir + "/s.csv --volume block --plastic -q -o " + dir +
-                 "/again.h5 --sculpt-out " + dir + "/again");
-  ASSERT_EQ(again.exit_code, 0) << again.err;
-  expect_same_ticks(dir + "/s.h5", dir + "/again.h5");
-  // Watchdog trips on a loaded machine ramp ~200 ticks each.
-  EXPECT_GE(testing::expect_same_forces_at_same_ramp(dir + "/s.h5", dir + "/again.h5"), 200u);
-  EXPECT_EQ(testing::read_file(dir + "/live.nrrd"), testing::read_file(dir + "/again.nrrd"));
+  expect_trace_replays_session(dir);
 }
 
 double column_sum(const std::string& session, const std::string& column) {
@@ -186,6 +198,50 @@ TEST(SculptCli, KeysSplitTheSessionIntoSegmentsThatEachReplayAndUndoRestoresTheC
   EXPECT_EQ(testing::read_file(dir + "/undo.nrrd"), testing::read_file(s[2] + "-start.nrrd"));
   // ... which the stroke had not yet carved.
   EXPECT_LT(column_sum(dir + "/undo.h5", "/relax/deleted_voxels"), 0.5 * second_stroke);
+}
+
+TEST(SculptCli, ADeviceProgramMovesTheToolInTheWindowThroughTheBridge) {
+  // sculpt --device: the bundled clay stroke played through the bridge by device-sim, the
+  // window drawing what it sculpts; the session's trace replays it in lockstep.
+  const std::string dir = scratch_dir();
+  const std::uint16_t port = testing::free_port();
+  const std::string device = "udp:127.0.0.1:" + std::to_string(port);
+  testing::CommandResult live;
+  std::thread sculpt([&] {
+    live = run_hapvox_env(kXvfb, "sculpt block --device " + device + " -o " + dir +
+                                     "/s.h5 --sculpt-out " + dir + "/live --screenshot " + dir +
+                                     "/after.png -q --no-mlock");
+  });
+  // The loop starts once the session file is made (the block loaded): the trace then.
+  for (int i = 0; i < 3000 && !std::filesystem::exists(dir + "/s.h5.partial"); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(testing::listening(port));
+  const testing::CommandResult sim = run_hapvox(
+      "device-sim " + testing::source_path("traces/clay_stroke.csv") + " --to " + device);
+  sculpt.join();
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  ASSERT_EQ(live.exit_code, 0) << live.err << live.out;
+  EXPECT_NE(live.out.find("sculpted with " + device + " on block -> " + dir + "/s.h5"),
+            std::string::npos)
+      << live.out;
+  // (It ends by the sender's end packet, or 5 s after it when a stall had the kernel drop
+  // that packet: the loop's ~1 s stalls are not yet explained, docs/realtime.md.)
+  EXPECT_NE(live.out.find("0 strokes"), std::string::npos) << live.out;  // the mouse took none
+  const haptics::SessionInfo info = haptics::read_session_info(dir + "/s.h5");
+  EXPECT_TRUE(info.complete);
+  EXPECT_EQ(attribute(info, "device"), device);
+  // The bridge's counts are in the session (what the kernel dropped while the loop stalled
+  // is counted lost: docs/realtime.md).
+  EXPECT_GT(std::stoll(attribute(info, "bridge_fresh")), 1000);
+  EXPECT_EQ(attribute(info, "bridge_malformed"), "0");
+  EXPECT_GT(std::stoll(attribute(info, "summary_plastic_events")), 100);
+  EXPECT_EQ(attribute(info, "summary_initial_mass_units"),
+            attribute(info, "summary_final_mass_units"));
+  const render::Image after = render::read_png(dir + "/after.png");
+  EXPECT_EQ(after.width, 800);
+
+  expect_trace_replays_session(dir);
 }
 
 TEST(SculptCli, BadInputIsOneLineAndMakesNoFile) {
