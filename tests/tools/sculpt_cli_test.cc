@@ -86,8 +86,9 @@ TEST(SculptCli, ARealtimeWindowCarvesAGrooveThatItsTraceReplaysBitForBit) {
   ASSERT_EQ(before.height, 600);
   ASSERT_EQ(after.width, 800);
   // Where the groove starts (however far the tool got: in paced lockstep under a sanitizer
-  // the ticks, and so the tool, fall behind the cursor), the window changed.
-  EXPECT_GT(render::mean_abs_difference(before, after, 310, 310, 420, 350), 10.0);
+  // the ticks, and so the tool, fall behind the cursor), the window changed: 33 here, 24
+  // under ASan, 6.3 under TSan in fresh-clone CI runs; nothing else is drawn there.
+  EXPECT_GT(render::mean_abs_difference(before, after, 310, 310, 420, 350), 3.0);
   // Far from the stroke (the bottom corners) nothing changed.
   EXPECT_LT(render::mean_abs_difference(before, after, 0, 560, 80, 600), 0.5);
 
