@@ -101,6 +101,68 @@ class RowRing {
   std::atomic<std::uint64_t> dropped_{0};
 };
 
+// Paced lockstep: the force thread hands tick k's row over here once its force is sent; the
+// background thread does the stage's lockstep work for it, fills its fields and marks it
+// done; tick k+1's force stage waits for that.
+struct PacedHandoff {
+  alignas(64) std::atomic<std::int64_t> ready{-1};  // the last tick handed over
+  alignas(64) std::atomic<std::int64_t> done{-1};   // the last tick whose work is done
+  RingSlot slot;                                    // that tick's row
+};
+
+// The background thread of paced lockstep: each handed-over tick's lockstep work, in order,
+// until the force thread is done and nothing is left.
+void run_paced_background(BackgroundStage& background, PacedHandoff& handoff,
+                          const std::atomic<bool>& force_done, const SchedulerOptions& scheduler,
+                          Clock::time_point start, RenderFeed* feed,
+                          const LockstepRender* paced_render, BackgroundTiming& timing) {
+  pthread_setname_np(pthread_self(), "hapvox-relax");
+  // The force thread waits for this one every tick: just below it in priority (where
+  // SCHED_FIFO is granted), and off its CPU, so a busy machine does not hold it back.
+  if (scheduler.realtime_policy) {
+    prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+    sched_param param{};
+    param.sched_priority = std::max(1, scheduler.fifo_priority - 1);
+    pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);  // refused: SCHED_OTHER
+  }
+  keep_off_force_cpu(scheduler);
+  const double cpu_start = thread_cpu_s();
+  std::int64_t next = 0;
+  int idle = 0;
+  while (true) {
+    if (handoff.ready.load(std::memory_order_acquire) < next) {
+      if (force_done.load(std::memory_order_acquire) &&
+          handoff.ready.load(std::memory_order_acquire) < next) {
+        break;
+      }
+      // Spin a little (the next tick is due within a period), then nap.
+      if (++idle < 64) {
+        std::this_thread::yield();
+      } else {
+        std::this_thread::sleep_for(std::chrono::microseconds(50));
+      }
+      if (feed != nullptr) feed->voxels.retry_patches();
+      continue;
+    }
+    idle = 0;
+    TickRecord& row = handoff.slot.row;
+    const auto begin = Clock::now();
+    background.run_lockstep_tick(static_cast<std::size_t>(next), row, paced_render);
+    if (feed != nullptr) feed->voxels.retry_patches();
+    if (row.deleted_voxels > 0 || row.relaxed_voxels > 0) {
+      timing.slice_ns.push_back(ns_between(begin, Clock::now()));
+      timing.slice_start_ns.push_back(ns_between(start, begin));
+      timing.slice_max_deletions =
+          std::max(timing.slice_max_deletions, static_cast<std::size_t>(row.deleted_voxels));
+      timing.slice_max_steps =
+          std::max(timing.slice_max_steps, static_cast<std::size_t>(row.relaxed_voxels));
+    }
+    handoff.done.store(next, std::memory_order_release);
+    ++next;
+  }
+  timing.cpu_s = thread_cpu_s() - cpu_start;
+}
+
 }  // namespace
 
 ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, Device& device,
@@ -141,12 +203,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   // Paced lockstep: tick k's row goes to the background thread, which does the stage's
   // lockstep work for it and fills its fields; tick k+1 waits for that.
   const bool paced = options.background_in_lockstep && background != nullptr;
-  struct Handoff {
-    alignas(64) std::atomic<std::int64_t> ready{-1};  // the last tick handed over
-    alignas(64) std::atomic<std::int64_t> done{-1};   // the last tick whose work is done
-    RingSlot slot;                                    // that tick's row
-  };
-  auto handoff = std::make_unique<Handoff>();
+  auto handoff = std::make_unique<PacedHandoff>();
   LockstepRender paced_render;  // the background stage's changed voxels, to the render thread
   paced_render.every_ticks = 0;
   const auto start = Clock::now() + std::chrono::milliseconds(5);
@@ -238,52 +295,8 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
       };
     }
     background_thread = std::thread([&] {
-      pthread_setname_np(pthread_self(), "hapvox-relax");
-      // The force thread waits for this one every tick: just below it in priority (where
-      // SCHED_FIFO is granted), and off its CPU, so a busy machine does not hold it back.
-      if (options.scheduler.realtime_policy) {
-        prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
-        sched_param param{};
-        param.sched_priority = std::max(1, options.scheduler.fifo_priority - 1);
-        pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);  // refused: SCHED_OTHER
-      }
-      keep_off_force_cpu(options.scheduler);
-      const double cpu_start = thread_cpu_s();
-      std::int64_t next = 0;
-      int idle = 0;
-      while (true) {
-        if (handoff->ready.load(std::memory_order_acquire) < next) {
-          if (force_done.load(std::memory_order_acquire) &&
-              handoff->ready.load(std::memory_order_acquire) < next) {
-            break;
-          }
-          // Spin a little (the next tick is due within a period), then nap.
-          if (++idle < 64) {
-            std::this_thread::yield();
-          } else {
-            std::this_thread::sleep_for(std::chrono::microseconds(50));
-          }
-          if (feed != nullptr) feed->voxels.retry_patches();
-          continue;
-        }
-        idle = 0;
-        TickRecord& row = handoff->slot.row;
-        const auto begin = Clock::now();
-        background->run_lockstep_tick(static_cast<std::size_t>(next), row,
-                                      feed != nullptr ? &paced_render : nullptr);
-        if (feed != nullptr) feed->voxels.retry_patches();
-        if (row.deleted_voxels > 0 || row.relaxed_voxels > 0) {
-          background_timing.slice_ns.push_back(ns_between(begin, Clock::now()));
-          background_timing.slice_start_ns.push_back(ns_between(start, begin));
-          background_timing.slice_max_deletions = std::max(
-              background_timing.slice_max_deletions, static_cast<std::size_t>(row.deleted_voxels));
-          background_timing.slice_max_steps = std::max(
-              background_timing.slice_max_steps, static_cast<std::size_t>(row.relaxed_voxels));
-        }
-        handoff->done.store(next, std::memory_order_release);
-        ++next;
-      }
-      background_timing.cpu_s = thread_cpu_s() - cpu_start;
+      run_paced_background(*background, *handoff, force_done, options.scheduler, start, feed.get(),
+                           feed != nullptr ? &paced_render : nullptr, background_timing);
     });
   } else if (background != nullptr) {
     background_thread = std::thread([&] {
