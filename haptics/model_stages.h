@@ -67,6 +67,7 @@ struct BackgroundTiming {
   double cpu_s = 0.0;                        // the thread's CPU time
   std::size_t slice_max_deletions = 0;       // most surface changes one slice applied
   std::size_t slice_max_steps = 0;           // most relaxation steps one slice took
+  std::size_t fifo_demotions = 0;  // paced lockstep: steps down from SCHED_FIFO (realtime.cc)
 };
 
 /// What a background stage did over a run (zeros where a model has no such work).

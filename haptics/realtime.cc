@@ -19,6 +19,7 @@
 
 #include "engine/check.h"
 #include "haptics/scheduler.h"
+#include "haptics/spsc_ring.h"
 
 namespace hapvox::haptics {
 namespace {
@@ -69,45 +70,102 @@ struct RingSlot {
   std::uint8_t nonfinite = 0;
 };
 
-// A single-producer, single-consumer ring of rows: the force thread pushes without waiting
+// Rows from the force thread to the session writer: the force thread pushes without waiting
 // (a full ring drops the row and counts it; at 8 s of rows, only a writer stalled that long
 // by the disk gets there), the writer thread pops.
 class RowRing {
  public:
-  static constexpr std::size_t kCapacity = 8192;  // a power of two
-
   void push(const RingSlot& slot) {
-    const std::size_t head = head_.load(std::memory_order_relaxed);
-    if (head - tail_.load(std::memory_order_acquire) == kCapacity) {
-      dropped_.fetch_add(1, std::memory_order_relaxed);
-      return;
-    }
-    slots_[head & (kCapacity - 1)] = slot;
-    head_.store(head + 1, std::memory_order_release);
+    if (!ring_.try_push(slot)) dropped_.fetch_add(1, std::memory_order_relaxed);
   }
-  bool pop(RingSlot& slot) {
-    const std::size_t tail = tail_.load(std::memory_order_relaxed);
-    if (tail == head_.load(std::memory_order_acquire)) return false;
-    slot = slots_[tail & (kCapacity - 1)];
-    tail_.store(tail + 1, std::memory_order_release);
-    return true;
-  }
+  bool pop(RingSlot& slot) { return ring_.try_pop(slot); }
   std::uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
 
  private:
-  std::array<RingSlot, kCapacity> slots_;
-  alignas(64) std::atomic<std::size_t> head_{0};
-  alignas(64) std::atomic<std::size_t> tail_{0};
+  SpscRing<RingSlot, 8192> ring_;
   std::atomic<std::uint64_t> dropped_{0};
 };
 
 // Paced lockstep: the force thread hands tick k's row over here once its force is sent; the
 // background thread does the stage's lockstep work for it, fills its fields and marks it
-// done; tick k+1's force stage waits for that.
+// done; tick k+1's force stage waits for that. Both sides block (futex waits through
+// std::atomic::wait) rather than spin: a SCHED_FIFO thread that spins spends the kernel's
+// real-time budget, and when that runs out every real-time thread on the CPU stops.
 struct PacedHandoff {
   alignas(64) std::atomic<std::int64_t> ready{-1};  // the last tick handed over
   alignas(64) std::atomic<std::int64_t> done{-1};   // the last tick whose work is done
+  alignas(64) std::atomic<std::uint32_t> wake{0};   // bumped on every handover and at the end
   RingSlot slot;                                    // that tick's row
+
+  // Force thread. No allocation, no lock: a store, and a futex wake when the other waits.
+  void hand_over(std::int64_t tick, const RingSlot& row) {
+    slot = row;
+    ready.store(tick, std::memory_order_release);
+    wake_background();
+  }
+  void wake_background() {
+    wake.fetch_add(1, std::memory_order_release);
+    wake.notify_one();
+  }
+  void wait_done(std::int64_t tick) const {
+    for (std::int64_t d = done.load(std::memory_order_acquire); d < tick;
+         d = done.load(std::memory_order_acquire)) {
+      done.wait(d, std::memory_order_acquire);
+    }
+  }
+  // Background thread.
+  void mark_done(std::int64_t tick) {
+    done.store(tick, std::memory_order_release);
+    done.notify_one();
+  }
+};
+
+// The paced background thread runs SCHED_FIFO just below the force thread (which waits for
+// it every tick), but its work per tick has no bound (a stroke's flows): were it to take
+// over ~95 % of its CPU for a second, the kernel's RT throttling would stop it, and with it
+// the force loop, for a second or more. So it watches its own busy fraction and steps down
+// to SCHED_OTHER (at nice kDemotedNice) while it is over kDemoteAbove, back once under
+// kPromoteBelow.
+class FifoBudget {
+ public:
+  static constexpr auto kWindow = std::chrono::milliseconds(200);
+  static constexpr double kDemoteAbove = 0.75;
+  static constexpr double kPromoteBelow = 0.40;
+  static constexpr int kDemotedNice = -10;
+
+  FifoBudget(const SchedulerOptions& scheduler, Clock::time_point now) : window_start_(now) {
+    if (!scheduler.realtime_policy) return;
+    prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+    setpriority(PRIO_PROCESS, 0, kDemotedNice);  // this thread only (Linux); for SCHED_OTHER
+    fifo_param_.sched_priority = std::max(1, scheduler.fifo_priority - 1);
+    fifo_ = pthread_setschedparam(pthread_self(), SCHED_FIFO, &fifo_param_) == 0;
+    granted_ = fifo_;  // refused (no CAP_SYS_NICE): SCHED_OTHER throughout
+  }
+  // One tick's work, from `begin` to `end`.
+  void add(Clock::time_point begin, Clock::time_point end) {
+    busy_ns_ += ns_between(begin, end);
+    const std::int64_t window_ns = ns_between(window_start_, end);
+    if (window_ns < std::chrono::nanoseconds(kWindow).count()) return;
+    const double busy = static_cast<double>(busy_ns_) / static_cast<double>(window_ns);
+    if (fifo_ && busy > kDemoteAbove) {
+      sched_param normal{};
+      fifo_ = pthread_setschedparam(pthread_self(), SCHED_OTHER, &normal) != 0;
+      if (!fifo_) ++demotions_;
+    } else if (granted_ && !fifo_ && busy < kPromoteBelow) {
+      fifo_ = pthread_setschedparam(pthread_self(), SCHED_FIFO, &fifo_param_) == 0;
+    }
+    window_start_ = end;
+    busy_ns_ = 0;
+  }
+  std::size_t demotions() const { return demotions_; }
+
+ private:
+  sched_param fifo_param_{};
+  bool granted_ = false;  // SCHED_FIFO was granted at the start
+  bool fifo_ = false;     // SCHED_FIFO now
+  Clock::time_point window_start_;
+  std::int64_t busy_ns_ = 0;
+  std::size_t demotions_ = 0;
 };
 
 // The background thread of paced lockstep: each handed-over tick's lockstep work, in order,
@@ -117,50 +175,40 @@ void run_paced_background(BackgroundStage& background, PacedHandoff& handoff,
                           Clock::time_point start, RenderFeed* feed,
                           const LockstepRender* paced_render, BackgroundTiming& timing) {
   pthread_setname_np(pthread_self(), "hapvox-relax");
-  // The force thread waits for this one every tick: just below it in priority (where
-  // SCHED_FIFO is granted), and off its CPU, so a busy machine does not hold it back.
-  if (scheduler.realtime_policy) {
-    prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
-    sched_param param{};
-    param.sched_priority = std::max(1, scheduler.fifo_priority - 1);
-    pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);  // refused: SCHED_OTHER
-  }
-  keep_off_force_cpu(scheduler);
+  FifoBudget budget(scheduler, Clock::now());
+  keep_off_force_cpu(scheduler);  // the force thread's CPU is its own
   const double cpu_start = thread_cpu_s();
   std::int64_t next = 0;
-  int idle = 0;
   while (true) {
+    const std::uint32_t wake = handoff.wake.load(std::memory_order_acquire);
     if (handoff.ready.load(std::memory_order_acquire) < next) {
       if (force_done.load(std::memory_order_acquire) &&
           handoff.ready.load(std::memory_order_acquire) < next) {
         break;
       }
-      // Spin a little (the next tick is due within a period), then nap.
-      if (++idle < 64) {
-        std::this_thread::yield();
-      } else {
-        std::this_thread::sleep_for(std::chrono::microseconds(50));
-      }
       if (feed != nullptr) feed->voxels.retry_patches();
+      handoff.wake.wait(wake, std::memory_order_acquire);  // until the next handover or the end
       continue;
     }
-    idle = 0;
     TickRecord& row = handoff.slot.row;
     const auto begin = Clock::now();
     background.run_lockstep_tick(static_cast<std::size_t>(next), row, paced_render);
     if (feed != nullptr) feed->voxels.retry_patches();
+    const auto end = Clock::now();
     if (row.deleted_voxels > 0 || row.relaxed_voxels > 0) {
-      timing.slice_ns.push_back(ns_between(begin, Clock::now()));
+      timing.slice_ns.push_back(ns_between(begin, end));
       timing.slice_start_ns.push_back(ns_between(start, begin));
       timing.slice_max_deletions =
           std::max(timing.slice_max_deletions, static_cast<std::size_t>(row.deleted_voxels));
       timing.slice_max_steps =
           std::max(timing.slice_max_steps, static_cast<std::size_t>(row.relaxed_voxels));
     }
-    handoff.done.store(next, std::memory_order_release);
+    budget.add(begin, end);
+    handoff.mark_done(next);
     ++next;
   }
   timing.cpu_s = thread_cpu_s() - cpu_start;
+  timing.fifo_demotions = budget.demotions();
 }
 
 }  // namespace
@@ -215,15 +263,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
     if (hooks.loop_started) hooks.loop_started();
     bool handed = false;  // paced: a row is with the background thread
     auto take_back = [&](std::int64_t tick) {
-      // Spin, then nap: a SCHED_FIFO thread that only yields would starve the background
-      // thread were the two ever on one CPU.
-      for (int spins = 0; handoff->done.load(std::memory_order_acquire) < tick; ++spins) {
-        if (spins < 256) {
-          std::this_thread::yield();
-        } else {
-          std::this_thread::sleep_for(std::chrono::microseconds(10));
-        }
-      }
+      handoff->wait_done(tick);
       rows->push(handoff->slot);
       handed = false;
     };
@@ -258,8 +298,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
                                            row.contact != 0, static_cast<std::int64_t>(tick)});
       }
       if (paced) {
-        handoff->slot = slot;
-        handoff->ready.store(static_cast<std::int64_t>(tick), std::memory_order_release);
+        handoff->hand_over(static_cast<std::int64_t>(tick), slot);
         handed = true;
       } else {
         rows->push(slot);
@@ -285,7 +324,11 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
       }
     }
     force_done.store(true, std::memory_order_release);
-    if (background != nullptr) background->wake();  // an idle background thread finishes
+    if (paced) {
+      handoff->wake_background();  // a waiting background thread finishes
+    } else if (background != nullptr) {
+      background->wake();  // an idle background thread finishes
+    }
   });
   std::thread background_thread;
   if (paced) {
@@ -404,6 +447,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
     }
     timing->relax_slice = duration_stats(slice_us);
     timing->relax_cpu_s = background_timing.cpu_s;
+    timing->relax_fifo_demotions = background_timing.fifo_demotions;
     timing->relax_slice_max_deletions = background_timing.slice_max_deletions;
     timing->relax_slice_max_steps = background_timing.slice_max_steps;
     timing->relax_slice_ns = std::move(background_timing.slice_ns);

@@ -50,6 +50,9 @@ struct TimingSummary {
   DurationStats relax_slice;
   double relax_busy_fraction = 0;  // time in slices / wall time
   double relax_cpu_s = 0;
+  /// Paced lockstep: how often the background thread stepped down from SCHED_FIFO to stay
+  /// under the kernel's real-time budget (over 75 % busy for 200 ms).
+  std::size_t relax_fifo_demotions = 0;
   std::size_t relax_slice_max_deletions = 0;  // most deletions one slice applied
   std::size_t relax_slice_max_steps = 0;      // most relaxation steps one slice took
   std::vector<std::int64_t> relax_slice_ns;   // every slice that did work, in order

@@ -5,7 +5,8 @@
 //   force thread  -> ToolStateMailbox  the latest tool pose each tick (a seqlock: the writer
 //                                       is wait-free, the reader retries a torn read)
 //   relax thread  -> VoxelPatchQueue   every voxel it changed, with its new density, over a
-//                                       bounded lock-free SPSC queue (atomic_queue); what
+//                                       bounded SPSC ring where neither side waits
+//                                       (haptics/spsc_ring.h); what
 //                                       does not fit waits in the relaxation thread's
 //                                       backlog and goes with its next slice, never lost
 //   FEM thread    -> TripleBuffer       the proxy mesh's latest node displacements (the
@@ -13,8 +14,6 @@
 //
 // The render thread keeps its own copy of the field (render::VolumeRenderer), so it reads
 // no OpenVDB tree another thread writes.
-
-#include <atomic_queue/atomic_queue.h>
 
 #include <atomic>
 #include <chrono>
@@ -24,6 +23,7 @@
 #include <vector>
 
 #include "engine/relax.h"
+#include "haptics/spsc_ring.h"
 #include "haptics/triple_buffer.h"
 
 namespace hapvox::engine::fem {
@@ -80,7 +80,7 @@ class VoxelPatchQueue {
   std::uint64_t full_events() const { return full_events_.load(std::memory_order_relaxed); }
 
  private:
-  atomic_queue::AtomicQueue2<VoxelPatch, kCapacity, true, true, false, true> queue_;
+  SpscRing<VoxelPatch, kCapacity> queue_;
   std::vector<VoxelPatch> patch_backlog_;  // producer-only: offer_patch's, in order
   std::size_t patch_backlog_head_ = 0;
   std::vector<openvdb::Coord> backlog_;  // producer-only

@@ -1,6 +1,7 @@
 #pragma once
 // The hand-off of surface changes from the force thread (producer) to the relaxation thread
-// (consumer): a bounded lock-free SPSC queue from atomic_queue, plus coalescing on overflow.
+// (consumer): a bounded SPSC ring in which neither side waits (haptics/spsc_ring.h), plus
+// coalescing on overflow.
 //
 // push() never blocks, locks or allocates. When the queue is full the change is merged into
 // one pending change held by the producer: its sweep is extended from the first pending
@@ -13,12 +14,11 @@
 // Linux a futex; the producer never blocks, and pays a wake-up system call only when the
 // consumer is asleep, once per idle-to-busy transition).
 
-#include <atomic_queue/atomic_queue.h>
-
 #include <atomic>
 #include <cstdint>
 
 #include "engine/surface_change.h"
+#include "haptics/spsc_ring.h"
 
 namespace hapvox::haptics {
 
@@ -34,7 +34,7 @@ class SurfaceChangeChannel {
   bool pop(engine::SurfaceChange& change) { return queue_.try_pop(change); }
 
   /// Approximate number of queued changes (either side).
-  unsigned depth() const { return queue_.was_size(); }
+  unsigned depth() const { return static_cast<unsigned>(queue_.was_size()); }
   std::uint64_t overflows() const { return overflows_.load(std::memory_order_relaxed); }
   bool has_pending() const { return pending_valid_; }
 
@@ -53,7 +53,7 @@ class SurfaceChangeChannel {
   }
 
  private:
-  atomic_queue::AtomicQueue2<engine::SurfaceChange, kCapacity, true, true, false, true> queue_;
+  SpscRing<engine::SurfaceChange, kCapacity> queue_;
   // Producer-only state.
   bool pending_valid_ = false;
   engine::SurfaceChange pending_;

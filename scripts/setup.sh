@@ -7,7 +7,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config ccache
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
-  libhdf5-dev libeigen3-dev libcli11-dev zlib1g-dev libatomic-queue-dev libtomlplusplus-dev
+  libhdf5-dev libeigen3-dev libcli11-dev zlib1g-dev libtomlplusplus-dev
   libnifti2-dev libgdcm-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libopengl-dev libgl-dev libpng-dev

@@ -231,6 +231,8 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     session.set_attribute("summary_relax_slice_max_us", timing.relax_slice.max_us);
     session.set_attribute("summary_relax_busy_fraction", timing.relax_busy_fraction);
     session.set_attribute("summary_relax_cpu_s", timing.relax_cpu_s);
+    session.set_attribute("summary_relax_fifo_demotions",
+                          static_cast<std::int64_t>(timing.relax_fifo_demotions));
     session.write_array("timing/relax_slice_ns", timing.relax_slice_ns, "ns");
     session.write_array("timing/relax_slice_start_ns", timing.relax_slice_start_ns, "ns");
   }
@@ -258,8 +260,13 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                    "(" + std::to_string(model.surface_sample_count()) + " surface samples)");
   if (f.realtime && f.plastic) {
     print_stats_line("relax slices", timing.relax_slice);
-    std::printf("  relax thread     busy %.1f%% of the wall time, %.3f s CPU\n",
-                100.0 * timing.relax_busy_fraction, timing.relax_cpu_s);
+    std::printf("  relax thread     busy %.1f%% of the wall time, %.3f s CPU%s\n",
+                100.0 * timing.relax_busy_fraction, timing.relax_cpu_s,
+                timing.relax_fifo_demotions == 0
+                    ? ""
+                    : (", " + std::to_string(timing.relax_fifo_demotions) +
+                       " steps down from SCHED_FIFO (over 75% busy for 200 ms)")
+                          .c_str());
   }
   if (f.plastic) {
     std::printf(

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <thread>
 
 #include <atomic>
@@ -448,5 +449,56 @@ TEST(Realtime, PacedLockstepSculptsExactlyAsTheLockstepReplay) {
   EXPECT_EQ(active_voxels(lockstep.mass), active_voxels(paced.mass));
 }
 
+// A background stage whose lockstep work is a busy wait: heavy_s per tick on ticks in the
+// heavy phases, nothing otherwise.
+class BusyBackground : public BackgroundStage {
+ public:
+  explicit BusyBackground(std::function<bool(std::size_t)> heavy) : heavy_(std::move(heavy)) {}
+  void begin() override {}
+  void run_lockstep_tick(std::size_t tick, TickRecord& row, const LockstepRender*) override {
+    if (heavy_(tick)) {
+      const auto until = std::chrono::steady_clock::now() + std::chrono::microseconds(1300);
+      while (std::chrono::steady_clock::now() < until) {
+      }
+      row.relaxed_voxels = 1;
+    }
+  }
+  void run_realtime(const std::atomic<bool>&, std::chrono::steady_clock::time_point, RenderFeed*,
+                    BackgroundTiming&) override {}
+  void fill_realtime_row(TickRecord&) noexcept override {}
+  void wake() noexcept override {}
+  SculptSummary finish(const LockstepRender*, RenderFeed*, const std::atomic<bool>*) override {
+    return {};
+  }
+
+ private:
+  std::function<bool(std::size_t)> heavy_;
+};
+
+// The paced background thread runs SCHED_FIFO (where granted) and steps down to the ordinary
+// policy while it is over 75 % busy for 200 ms, back once under 40 %: it never reaches the
+// kernel's RT throttling (95 % of a CPU for a second), which would stop it, and with it the
+// force loop. Heavy, light, heavy: two steps down (and one back up in between).
+TEST(Realtime, APacedBackgroundThreadBusyForLongStepsDownFromSchedFifo) {
+  LockstepSculpt scene;  // its force stage; the tool stays far above the clay
+  Trace trace;
+  for (int k = 0; k <= 2400; ++k) {
+    trace.time_s.push_back(k * 1e-3);
+    trace.position_mm.emplace_back(0.0, 0.0, 500.0);
+  }
+  TraceDevice device(resample(trace, ResampleOptions{}), DeviceTransform{});
+  BusyBackground background([](std::size_t tick) { return tick < 700 || tick >= 1700; });
+  RealtimeOptions realtime;
+  realtime.scheduler.lock_memory = false;
+  realtime.background_in_lockstep = true;
+  TimingSummary timing;
+  replay_realtime(scene.force, &background, device, DeviceLimits{}, nullptr, {}, nullptr, &timing,
+                  realtime);
+  if (timing.scheduler.policy.rfind("on", 0) != 0) {
+    EXPECT_EQ(timing.relax_fifo_demotions, 0u) << timing.scheduler.policy;  // never FIFO
+    GTEST_SKIP() << "SCHED_FIFO refused here: " << timing.scheduler.policy;
+  }
+  EXPECT_EQ(timing.relax_fifo_demotions, 2u);
+}
 }  // namespace
 }  // namespace hapvox::haptics
