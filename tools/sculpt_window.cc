@@ -233,8 +233,10 @@ struct SculptWindow::Session {
   Callbacks callbacks{&input, 0.5};
   std::unique_ptr<render::VolumeRenderer> renderer;  // this segment's volume
   render::OrbitCamera camera;
-  Vector3d target = Vector3d::Zero();  // the tool's target, the renderer's frame
-  std::size_t next_event = 0;          // the script's next
+  Vector3d target = Vector3d::Zero();      // the tool's target, the renderer's frame
+  Vector3d drag_point = Vector3d::Zero();  // a stroke's drag plane passes through it
+  bool dragging = false;                   // a stroke is under way (left button held)
+  std::size_t next_event = 0;              // the script's next
   // The script's clock: seconds of frames drawn, stopped between segments (a key's change
   // takes as long as it takes; the strokes after it keep their pace).
   double script_s = 0.0;
@@ -338,6 +340,55 @@ void SculptWindow::close() noexcept {
   session_.reset();
 }
 
+// The tool's target from the cursor (the mouse moves the tool). Picking on what is drawn
+// (Nakao §3.2): a press starts a stroke on the view plane through the surface point under
+// the cursor, which the drag then follows (pushed in or out along the view by the wheel);
+// between strokes the tool hovers over the surface under the cursor, clear of the material.
+void SculptWindow::steer_tool(int window_w, int window_h, std::int64_t felt_tick) {
+  Session& s = *session_;
+  Input& input = s.input;
+  const double radius = segment_setup_.tool_radius_mm;
+  const Vector3d eye = s.camera.eye_mm();
+  const Vector3d view = s.camera.view_direction();
+  const Vector3d ray = s.camera.pixel_ray(static_cast<int>(input.cursor_x),
+                                          static_cast<int>(input.cursor_y), window_w, window_h);
+  const std::optional<Vector3d> hit =
+      render::pick_surface(s.renderer->volume(), eye, ray, options_.surface_density);
+  if (input.press_pending) {
+    input.press_pending = false;
+    ++report_.presses;
+    if (!hit) ++report_.picks_missed;
+    segment_.press_ticks.push_back(std::max<std::int64_t>(felt_tick, 0));
+    s.drag_point = hit ? *hit : s.target;  // nothing under the cursor: the tool's own depth
+    input.push_mm = 0.0;
+    s.dragging = true;
+  }
+  // Clear of the material: the tool's whole sphere and a millimetre more, backed off
+  // towards the eye (render/pick.h), never a standoff that a narrow groove's far wall
+  // would touch.
+  const double clearance_mm = radius + 1.0;
+  const double reach_mm = 10.0 * radius + 20.0;
+  if (!input.left_down && s.dragging) {
+    // The stroke ends: the tool lifts back out towards the eye.
+    s.dragging = false;
+    s.target = render::clear_of_material(s.renderer->volume(), s.target, -view, clearance_mm,
+                                         options_.surface_density, reach_mm);
+    input.push_mm = 0.0;
+  } else if (s.dragging) {
+    const double along = ray.dot(view);
+    if (along > 1e-9) {
+      const Vector3d on_plane = eye + ((s.drag_point - eye).dot(view) / along) * ray;
+      s.target = on_plane + input.push_mm * view;
+    }
+  } else if (hit) {
+    // Hovering over the surface under the cursor (pulled further out by a negative push).
+    s.target =
+        render::clear_of_material(s.renderer->volume(), *hit + std::min(0.0, input.push_mm) * view,
+                                  -view, clearance_mm, options_.surface_density, reach_mm);
+  }
+  mouse_->set_target(frame_.grid_to_world(s.target), input.dead_man);
+}
+
 void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing) {
   if (!session_) open();
   Session& s = *session_;
@@ -356,9 +407,9 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
 
   const double radius = segment_setup_.tool_radius_mm;
   const Eigen::Matrix3d to_grid = frame_.direction().transpose();  // world -> grid vectors
-  Vector3d& target = s.target;   // the tool's target (the renderer's frame)
-  Vector3d drag_point = target;  // the drag plane's point
-  bool dragging = false;
+  s.drag_point = s.target;
+  s.dragging = false;
+  const bool& dragging = s.dragging;
   std::vector<std::string> screenshots;
   const auto period = std::chrono::nanoseconds(std::llround(1e9 / options_.fps));
   auto next = Clock::now();
@@ -405,53 +456,18 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
     s.camera.elevation_deg = std::clamp(s.camera.elevation_deg + input.orbit_deg[1], -85.0, 85.0);
     input.orbit_deg[0] = input.orbit_deg[1] = 0.0;
 
-    // The tool's target from the cursor: picking on what is drawn (Nakao §3.2).
     int window_w = 0, window_h = 0, frame_w = 0, frame_h = 0;
     glfwGetWindowSize(s.window, &window_w, &window_h);
     glfwGetFramebufferSize(s.window, &frame_w, &frame_h);
     window_w = std::max(window_w, 1), window_h = std::max(window_h, 1);
     frame_w = std::max(frame_w, 16), frame_h = std::max(frame_h, 16);
-    const Vector3d eye = s.camera.eye_mm();
     view = s.camera.view_direction();
-    const Vector3d ray = s.camera.pixel_ray(static_cast<int>(input.cursor_x),
-                                            static_cast<int>(input.cursor_y), window_w, window_h);
-    const std::optional<Vector3d> hit =
-        render::pick_surface(s.renderer->volume(), eye, ray, options_.surface_density);
     const haptics::DeviceFeedback felt = device.feedback();
-    if (input.press_pending && mouse_ == nullptr) input.press_pending = false;  // not ours
-    if (input.press_pending) {
-      input.press_pending = false;
-      ++report_.presses;
-      if (!hit) ++report_.picks_missed;
-      segment_.press_ticks.push_back(std::max<std::int64_t>(felt.tick, 0));
-      drag_point = hit ? *hit : target;  // nothing under the cursor: the tool's own depth
-      input.push_mm = 0.0;
-      dragging = true;
+    if (mouse_ != nullptr) {
+      steer_tool(window_w, window_h, felt.tick);
+    } else {
+      input.press_pending = false;  // a device program moves the tool: no strokes here
     }
-    // Clear of the material: the tool's whole sphere and a millimetre more, backed off
-    // towards the eye (render/pick.h), never a standoff that a narrow groove's far wall
-    // would touch.
-    const double clearance_mm = radius + 1.0;
-    const double reach_mm = 10.0 * radius + 20.0;
-    if (!input.left_down && dragging) {
-      // The stroke ends: the tool lifts back out towards the eye.
-      dragging = false;
-      target = render::clear_of_material(s.renderer->volume(), target, -view, clearance_mm,
-                                         options_.surface_density, reach_mm);
-      input.push_mm = 0.0;
-    } else if (dragging) {
-      const double along = ray.dot(view);
-      if (along > 1e-9) {
-        const Vector3d on_plane = eye + ((drag_point - eye).dot(view) / along) * ray;
-        target = on_plane + input.push_mm * view;
-      }
-    } else if (hit) {
-      // Hovering over the surface under the cursor (pulled further out by a negative push).
-      target = render::clear_of_material(s.renderer->volume(),
-                                         *hit + std::min(0.0, input.push_mm) * view, -view,
-                                         clearance_mm, options_.surface_density, reach_mm);
-    }
-    if (mouse_ != nullptr) mouse_->set_target(frame_.grid_to_world(target), input.dead_man);
 
     // The volume as the render thread's copy has it, the tool where the force thread put it.
     const haptics::RenderToolState tool = feed.tool.read();
@@ -554,7 +570,7 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
   const haptics::DeviceFeedback last = device.feedback();
   segment_.last_position_mm =
       last.tick >= 0 ? Vector3d(last.position_mm[0], last.position_mm[1], last.position_mm[2])
-                     : frame_.grid_to_world(target);
+                     : frame_.grid_to_world(s.target);
   segment_.view_direction = frame_.direction() * view;
 }
 

@@ -108,6 +108,8 @@ class SculptWindow {
   struct Session;  // the window, its context, renderer and input, kept across segments
   void open();
   void run(haptics::RenderFeed& feed, haptics::RenderTiming& timing);
+  // The mouse's stage of a frame: the tool's target from the cursor, handed to mouse_.
+  void steer_tool(int window_w, int window_h, std::int64_t felt_tick);
 
   engine::DensityField frame_;  // the geometry only: no voxels
   RenderSetup setup_;
