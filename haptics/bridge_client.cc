@@ -84,6 +84,11 @@ BridgeClientResult play_through_bridge(const ResampledTrace& trace, UdpSocket& s
     PositionPacket packet;
     packet.header.sequence = static_cast<std::uint32_t>(k);
     packet.position_mm = trace.position_mm[std::min(k, ticks - 1)];
+    if (!trace.orientation.empty()) {  // the stylus orientation, where the trace has one
+      const Eigen::Quaterniond& q = trace.orientation[std::min(k, ticks - 1)];
+      packet.orientation_wxyz = {q.w(), q.x(), q.y(), q.z()};
+      packet.flags |= kPositionHasOrientation;
+    }
     packet.buttons = options.buttons;
     return packet;
   };

@@ -28,6 +28,10 @@ BridgeDevice::BridgeDevice(UdpSocket socket, const DeviceTransform& transform,
       transform_(transform),
       options_(options),
       period_(seconds_to_ns(1.0 / options.rate_hz)),
+      fresh_wait_(
+          nanoseconds(std::llround(options.wait_periods * static_cast<double>(period_.count())))),
+      silence_timeout_(seconds_to_ns(options.silence_timeout_s)),
+      end_after_silence_(seconds_to_ns(options.end_after_silence_s)),
       created_(Clock::now()) {}
 
 bool BridgeDevice::finished() const {
@@ -35,7 +39,7 @@ bool BridgeDevice::finished() const {
   if (options_.stop != nullptr && options_.stop->load(std::memory_order_relaxed)) return true;
   if (options_.end_after_silence_s > 0.0) {
     const Clock::time_point since = started_ ? last_fresh_ : created_;
-    if (Clock::now() - since > seconds_to_ns(options_.end_after_silence_s)) return true;
+    if (Clock::now() - since > end_after_silence_) return true;
   }
   return false;
 }
@@ -108,8 +112,7 @@ Device::Clock::time_point BridgeDevice::wait_for_tick(std::size_t, Clock::time_p
   }
   // After a fresh position the next may be up to half a period late; after a held tick,
   // the loop keeps its own rate.
-  const nanoseconds wait =
-      last_was_fresh ? nanoseconds(std::llround(options_.wait_periods * period_.count())) : period_;
+  const nanoseconds wait = last_was_fresh ? fresh_wait_ : period_;
   const Clock::time_point timeout = last_tick_ + wait;
   for (;;) {
     const Clock::time_point now = Clock::now();
@@ -128,12 +131,14 @@ Device::Clock::time_point BridgeDevice::wait_for_tick(std::size_t, Clock::time_p
 void BridgeDevice::read(std::size_t tick, DeviceReading& reading) {
   reading.time_s = static_cast<double>(tick) / options_.rate_hz;
   reading.position_mm = latest_.position_mm;
+  if ((latest_.flags & kPositionHasOrientation) != 0) {
+    reading.orientation_wxyz = latest_.orientation_wxyz;  // checked a unit quaternion
+  }
   reading.buttons = latest_.buttons;
   reading.sequence = latest_.header.sequence;
   reading.holding = !fresh_this_tick_;
   const bool was_silent = silent_;
-  silent_ =
-      !fresh_this_tick_ && last_tick_ - last_fresh_ > seconds_to_ns(options_.silence_timeout_s);
+  silent_ = !fresh_this_tick_ && last_tick_ - last_fresh_ > silence_timeout_;
   if (silent_ && !was_silent) ++counters_.silences;
   reading.silent = silent_;
   reading.released = (latest_.buttons & kButtonDeadMan) == 0;

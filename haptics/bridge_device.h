@@ -69,6 +69,9 @@ class BridgeDevice final : public Device {
   double rate_hz() const override { return options_.rate_hz; }
   std::size_t tick_count() const override { return kUnbounded; }
   const DeviceTransform& transform() const override { return transform_; }
+  /// Packets may carry the stylus orientation (kPositionHasOrientation): the session records
+  /// it per tick, the identity for a packet without one.
+  bool reports_orientation() const override { return true; }
   Clock::time_point wait_for_tick(std::size_t tick, Clock::time_point deadline) override;
   void read(std::size_t tick, DeviceReading& reading) override;
   void send(std::size_t tick, const Vec3d& force_device_n, const TickRecord& row,
@@ -93,7 +96,11 @@ class BridgeDevice final : public Device {
   UdpSocket socket_;
   DeviceTransform transform_;
   BridgeOptions options_;
+  // The options' durations, converted once (the force thread reads them every tick).
   std::chrono::nanoseconds period_;
+  std::chrono::nanoseconds fresh_wait_;         // wait_periods periods: after a fresh position
+  std::chrono::nanoseconds silence_timeout_;    // silence_timeout_s
+  std::chrono::nanoseconds end_after_silence_;  // end_after_silence_s (0: never)
   SequenceWindow window_;
   BridgeCounters counters_;
   PositionPacket latest_;     // the newest fresh position

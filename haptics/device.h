@@ -9,6 +9,7 @@
 // throw. A live device may do non-blocking socket I/O there (its device's own transport).
 
 #include <Eigen/Core>
+#include <array>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -31,6 +32,10 @@ struct DeviceReading {
   bool holding = false;   // the position is held: a gap in a trace, a packet that did not come
   bool silent = false;    // a live device has been silent past its timeout: ramp the force out
   bool released = false;  // the dead-man is released: ramp the force out until pressed again
+  // The stylus orientation (a unit quaternion w,x,y,z, device frame), where the device has
+  // one (reports_orientation()); the identity otherwise. The sphere tool does not turn: it is
+  // recorded for 6-DoF tools to come.
+  std::array<double, 4> orientation_wxyz = {1.0, 0.0, 0.0, 0.0};
 };
 
 class Device {
@@ -45,6 +50,9 @@ class Device {
   virtual double rate_hz() const = 0;
   /// Ticks it will give, or kUnbounded.
   virtual std::size_t tick_count() const = 0;
+  /// Whether read() gives the stylus orientation: the session then records it per tick
+  /// (/device_orientation).
+  virtual bool reports_orientation() const { return false; }
   /// Device frame -> volume (forces go back through its rotation).
   virtual const DeviceTransform& transform() const = 0;
 

@@ -218,6 +218,8 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
                               const ProgressFn& progress, SculptSummary* sculpt_summary,
                               TimingSummary* timing, const RealtimeOptions& options) {
   SummaryBuilder builder(device);
+  // A device with a stylus orientation: the session records it per tick.
+  if (session != nullptr && device.reports_orientation()) session->record_orientation();
   const std::size_t ticks = device.tick_count();  // kUnbounded: until the device finishes
   if (ticks == 0) return builder.finish(0, 0);
   const auto dt = std::chrono::nanoseconds(std::llround(1e9 / device.rate_hz()));

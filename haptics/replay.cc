@@ -74,6 +74,7 @@ bool run_force_stage(ForceStage& stage, Device& device, std::size_t tick,
   const DeviceTransform& transform = device.transform();
   row.time_s = reading.time_s;
   row.device_position_mm = reading.position_mm;
+  row.device_orientation_wxyz = reading.orientation_wxyz;
   row.tool_position_mm = transform.apply(reading.position_mm);
   row.holding = reading.holding ? 1 : 0;
   row.device_sequence = reading.sequence;
@@ -94,6 +95,8 @@ ReplaySummary replay_lockstep(ForceStage& force, BackgroundStage* background, De
                               const LockstepRender* render) {
   using Clock = std::chrono::steady_clock;
   SummaryBuilder builder(device);
+  // A device with a stylus orientation: the session records it per tick.
+  if (session != nullptr && device.reports_orientation()) session->record_orientation();
   const std::size_t ticks = device.tick_count();
   HAPVOX_CHECK(ticks != Device::kUnbounded);  // lockstep replays a known trace
   if (ticks == 0) return builder.finish(0, 0);

@@ -115,6 +115,13 @@ SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
   buffer_.reserve(flush_every_);
 }
 
+void SessionWriter::record_orientation() {
+  HAPVOX_CHECK(buffer_.empty() && rows_written_ == 0);
+  if (ds_.device_orientation >= 0) return;
+  ds_.device_orientation =
+      create_column(file_, "device_orientation", H5T_IEEE_F64LE, 4, "quaternion w,x,y,z");
+}
+
 SessionWriter::~SessionWriter() {
   if (file_ >= 0) {
     // Not closed: keep what was flushed in PATH.partial for post-mortems, never at PATH.
@@ -151,6 +158,7 @@ void SessionWriter::close_datasets() {
                   ds_.watchdog}) {
     H5Dclose(d);
   }
+  if (ds_.device_orientation >= 0) H5Dclose(ds_.device_orientation);
 }
 
 void SessionWriter::set_attribute(const std::string& name, const std::string& value) {
@@ -228,6 +236,13 @@ void SessionWriter::flush_rows() {
   };
   scalar_column(ds_.time_s, [](const TickRecord& r) { return r.time_s; });
   vector_column(ds_.device_position_mm, [](const TickRecord& r) { return r.device_position_mm; });
+  if (ds_.device_orientation >= 0) {
+    std::vector<double> quaternions(4 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int c = 0; c < 4; ++c) quaternions[4 * i + c] = buffer_[i].device_orientation_wxyz[c];
+    }
+    write_column(ds_.device_orientation, H5T_NATIVE_DOUBLE, quaternions.data(), 4);
+  }
   vector_column(ds_.tool_position_mm, [](const TickRecord& r) { return r.tool_position_mm; });
   vector_column(ds_.force_n, [](const TickRecord& r) { return r.force_n; });
   scalar_column(ds_.force_scale, [](const TickRecord& r) { return r.force_scale; });

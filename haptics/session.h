@@ -9,6 +9,7 @@
 #include <hdf5.h>
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -25,6 +26,8 @@ struct TickRecord {
   Vec3d force_n = Vec3d::Zero();             // force sent (finite, clamped, ramped)
   double force_scale = 0.0;                  // the ramp factor it was sent with (ForceRamp)
   Vec3d displacement_mm = Vec3d::Zero();     // u = x_n - x0 of the elastic model
+  // The stylus orientation (w,x,y,z, device space), where the device reports one.
+  std::array<double, 4> device_orientation_wxyz = {1.0, 0.0, 0.0, 0.0};
   double contact_area_mm2 = 0.0;
   std::uint8_t contact = 0;
   std::uint8_t holding = 0;           // trace gap: tool held
@@ -72,6 +75,10 @@ class SessionWriter {
   /// The open file, for writers of whole groups (e.g. the proxy mesh); not after close().
   hid_t file_handle() const { return file_; }
 
+  /// Adds the /device_orientation column (ticks x 4: the stylus quaternion w,x,y,z of each
+  /// row), for a device that reports one. Before the first append().
+  void record_orientation();
+
   /// Buffers the row; writes and flushes the file every flush_every_ticks rows.
   void append(const TickRecord& row);
   /// Writes what is buffered, marks the file complete and renames it to PATH.
@@ -96,6 +103,7 @@ class SessionWriter {
         contact, holding, clamped, compute_ns, strain, stress_pa, zone, plastic_event, queue_depth,
         deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns, lateness_ns,
         watchdog, force_scale, device_sequence;
+    hid_t device_orientation = -1;  // record_orientation()'s
   } ds_{};
   std::vector<TickRecord> buffer_;
   std::size_t rows_written_ = 0;

@@ -124,6 +124,10 @@ void check_trace_shape(const Trace& trace, const std::string& source) {
     throw InputError(source, "trace has " + std::to_string(trace.time_s.size()) + " times but " +
                                  std::to_string(trace.position_mm.size()) + " positions");
   }
+  if (!trace.orientation.empty() && trace.orientation.size() != trace.time_s.size()) {
+    throw InputError(source, "trace has " + std::to_string(trace.time_s.size()) + " times but " +
+                                 std::to_string(trace.orientation.size()) + " orientations");
+  }
 }
 
 // --- HDF5 ---------------------------------------------------------------------------
@@ -373,11 +377,18 @@ void write_csv_trace(const Trace& trace, const std::string& path) {
   if (out == nullptr) {
     throw InputError(path, "cannot write " + partial + ": " + std::strerror(errno));
   }
-  bool ok = std::fputs("t,x,y,z\n", out) >= 0;
+  // With an orientation: its quaternion as qw,qx,qy,qz (read back with --orientation-cols).
+  const bool turning = !trace.orientation.empty();
+  bool ok = std::fputs(turning ? "t,x,y,z,qw,qx,qy,qz\n" : "t,x,y,z\n", out) >= 0;
   for (std::size_t i = 0; ok && i < trace.time_s.size(); ++i) {
     const Vec3d& p = trace.position_mm[i];
     // %.17g round-trips every double exactly.
-    ok = std::fprintf(out, "%.17g,%.17g,%.17g,%.17g\n", trace.time_s[i], p.x(), p.y(), p.z()) > 0;
+    ok = std::fprintf(out, "%.17g,%.17g,%.17g,%.17g", trace.time_s[i], p.x(), p.y(), p.z()) > 0;
+    if (ok && turning) {
+      const Eigen::Quaterniond& q = trace.orientation[i];
+      ok = std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g", q.w(), q.x(), q.y(), q.z()) > 0;
+    }
+    ok = ok && std::fputc('\n', out) != EOF;
   }
   ok = (std::fclose(out) == 0) && ok;
   if (!ok) {

@@ -18,9 +18,14 @@ class TraceDevice final : public Device {
   double rate_hz() const override { return trace_.rate_hz; }
   std::size_t tick_count() const override { return trace_.time_s.size(); }
   const DeviceTransform& transform() const override { return transform_; }
+  bool reports_orientation() const override { return !trace_.orientation.empty(); }
   void read(std::size_t tick, DeviceReading& reading) override {
     reading.time_s = trace_.time_s[tick];
     reading.position_mm = trace_.position_mm[tick];
+    if (!trace_.orientation.empty()) {
+      const Eigen::Quaterniond& q = trace_.orientation[tick];
+      reading.orientation_wxyz = {q.w(), q.x(), q.y(), q.z()};
+    }
     reading.holding = trace_.holding[tick] != 0;
     reading.sequence = static_cast<std::int64_t>(tick);
   }

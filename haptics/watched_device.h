@@ -46,6 +46,7 @@ class ObservedDevice final : public WatchedDevice {
   double rate_hz() const override { return inner_.rate_hz(); }
   std::size_t tick_count() const override { return inner_.tick_count(); }
   const DeviceTransform& transform() const override { return inner_.transform(); }
+  bool reports_orientation() const override { return inner_.reports_orientation(); }
   Clock::time_point wait_for_tick(std::size_t tick, Clock::time_point deadline) override {
     return inner_.wait_for_tick(tick, deadline);
   }

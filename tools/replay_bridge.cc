@@ -1,6 +1,7 @@
 // `hapvox replay --device udp:HOST:PORT`: the live device behind the bridge
 // (haptics/bridge_device.h) in place of a trace, its flags, counters and report.
 
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -58,6 +59,14 @@ void write_recorded_trace(const std::string& session_path, const std::string& tr
   trace.position_mm.reserve(time_s.size());
   for (std::size_t k = 0; k < time_s.size(); ++k) {
     trace.position_mm.emplace_back(position[3 * k], position[3 * k + 1], position[3 * k + 2]);
+  }
+  // The stylus orientation of each tick, where the device reported one (a bridge's packets).
+  const std::vector<std::string> datasets = haptics::read_session_info(session_path).datasets;
+  if (std::find(datasets.begin(), datasets.end(), "/device_orientation") != datasets.end()) {
+    const std::vector<double> q = haptics::read_session_column(session_path, "/device_orientation");
+    for (std::size_t k = 0; k < time_s.size(); ++k) {
+      trace.orientation.emplace_back(q[4 * k], q[4 * k + 1], q[4 * k + 2], q[4 * k + 3]);
+    }
   }
   if (trace.time_s.size() < 2) {
     std::fprintf(stderr, "hapvox: warning: --trace-out: %zu ticks, no trace written\n",

@@ -43,24 +43,13 @@ void print_progress(std::size_t done, std::size_t total) {
 }
 
 void write_trace_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
-                            const haptics::TraceColumns& columns,
-                            const haptics::ResampledTrace& trace) {
+                            const haptics::TraceColumns& columns) {
   session.set_attribute("trace_file", f.trace_path);
   session.set_attribute("trace_columns", columns.time + "," + f.trace.pos_cols);
   session.set_attribute("trace_units", f.trace.time_unit + "," + f.trace.pos_unit);
   // An H3D DeviceLog names its own fields and units: the column flags did not apply.
   if (haptics::is_h3d_device_log(f.trace_path)) {
     session.set_attribute("trace_format", std::string("h3d-devicelog"));
-  }
-  // The stylus orientation per tick, for 6-DoF tools later (the sphere does not turn).
-  const std::vector<Eigen::Quaterniond>& turn = trace.orientation;
-  if (!turn.empty()) {
-    std::vector<double> wxyz;
-    wxyz.reserve(4 * turn.size());
-    for (const Eigen::Quaterniond& q : turn) {
-      wxyz.insert(wxyz.end(), {q.w(), q.x(), q.y(), q.z()});
-    }
-    session.write_array("device_orientation", wxyz, {turn.size(), 4}, "quaternion w,x,y,z");
   }
 }
 
@@ -129,7 +118,7 @@ void write_run_attributes(haptics::SessionWriter& session, const ReplayFlags& f,
   if (trace == nullptr) {
     session.set_attribute("device", f.front_end != nullptr ? f.front_end->name : f.device);
   } else {
-    write_trace_attributes(session, f, columns, *trace);
+    write_trace_attributes(session, f, columns);
   }
   write_volume_attributes(session, f, mapping, field);
   session.set_attribute("loop_rate_hz", device.rate_hz());

@@ -129,6 +129,42 @@ TEST(BridgeDevice, ForcesThroughTheBridgeAreTheLockstepReplays) {
   EXPECT_GT(run.bridge.round_trip.count(), ticks.position_mm.size() / 2);
 }
 
+// Each packet's stylus orientation (where its flag says it has one) is the session's
+// /device_orientation on the tick that used the packet; a packet without one is the identity
+// there.
+TEST(BridgeDevice, EachPacketsOrientationIsRecordedOnItsTick) {
+  ResampledTrace ticks = press_ticks(0.1);
+  const std::size_t n = ticks.position_mm.size();
+  for (std::size_t k = 0; k < n; ++k) {  // a turn about (0.6, 0, 0.8), 1 mrad a tick
+    const double half = 0.0005 * static_cast<double>(k);
+    ticks.orientation.emplace_back(std::cos(half), 0.6 * std::sin(half), 0.0, 0.8 * std::sin(half));
+  }
+  const std::string turning = temp_path("bridge_turning.h5");
+  run_bridge(ticks, {}, turning);
+  const std::vector<double> q = read_session_column(turning, "/device_orientation");
+  const std::vector<double> sequence = read_session_column(turning, "/device_sequence");
+  ASSERT_EQ(q.size(), 4 * sequence.size());
+  ASSERT_GT(sequence.size(), n / 2);
+  for (std::size_t row = 0; row < sequence.size(); ++row) {
+    // The end packet (sequence n) repeats the last sample's position and orientation.
+    const std::size_t k = std::min(static_cast<std::size_t>(sequence[row]), n - 1);
+    const Eigen::Quaterniond& sent = ticks.orientation[k];
+    ASSERT_EQ(q[4 * row], sent.w()) << row;  // f64 on the wire: bit for bit
+    ASSERT_EQ(q[4 * row + 1], sent.x()) << row;
+    ASSERT_EQ(q[4 * row + 2], sent.y()) << row;
+    ASSERT_EQ(q[4 * row + 3], sent.z()) << row;
+  }
+  // Without the flag: the identity on every tick.
+  ticks.orientation.clear();
+  const std::string still = temp_path("bridge_still.h5");
+  run_bridge(ticks, {}, still);
+  const std::vector<double> identity = read_session_column(still, "/device_orientation");
+  ASSERT_FALSE(identity.empty());
+  for (std::size_t i = 0; i < identity.size(); ++i) {
+    ASSERT_EQ(identity[i], i % 4 == 0 ? 1.0 : 0.0) << i;
+  }
+}
+
 TEST(BridgeDevice, LossReorderingAndDuplicatesAreCountedAndTheLoopKeepsItsRate) {
   const ResampledTrace ticks = press_ticks(1.0);
   BridgeClientOptions impaired;

@@ -65,6 +65,37 @@ TEST(TraceCsvTest, RoundTripIsExact) {
   expect_bit_equal(read_trace(path), trace);
 }
 
+// A trace with an orientation writes it as qw,qx,qy,qz, which --orientation-cols reads back:
+// the same unit quaternions (normalised again on reading: to the last bit or two).
+TEST(TraceCsvTest, AnOrientationRoundTripsThroughItsQuaternionColumns) {
+  const std::string path = hapvox::testing::scratch_dir() + "/turning.csv";
+  Trace trace = awkward_trace();
+  for (std::size_t i = 0; i < trace.time_s.size(); ++i) {
+    const double half_angle = 0.05 * static_cast<double>(i);
+    trace.orientation.push_back(Eigen::Quaterniond(std::cos(half_angle), 0.6 * std::sin(half_angle),
+                                                   0.0, 0.8 * std::sin(half_angle)));
+  }
+  write_csv_trace(trace, path);
+  TraceColumns columns;
+  columns.orientation = {"qw", "qx", "qy", "qz"};
+  const Trace back = read_trace(path, columns);
+  expect_bit_equal(back, trace);
+  ASSERT_EQ(back.orientation.size(), trace.orientation.size());
+  for (std::size_t i = 0; i < trace.orientation.size(); ++i) {
+    EXPECT_NEAR(back.orientation[i].w(), trace.orientation[i].w(), 1e-15) << i;
+    EXPECT_NEAR(back.orientation[i].x(), trace.orientation[i].x(), 1e-15) << i;
+    EXPECT_NEAR(back.orientation[i].y(), trace.orientation[i].y(), 1e-15) << i;
+    EXPECT_NEAR(back.orientation[i].z(), trace.orientation[i].z(), 1e-15) << i;
+  }
+  // Without one the file stays t,x,y,z.
+  trace.orientation.clear();
+  write_csv_trace(trace, path);
+  std::ifstream in(path);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "t,x,y,z");
+}
+
 TEST(TraceCsvTest, ExtraColumnsIgnoredAndOrderFree) {
   const std::string path = write_text("t.csv",
                                       "force, z ,\"y\",x,t,label\n"

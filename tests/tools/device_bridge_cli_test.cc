@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -57,13 +60,32 @@ std::vector<Answer> read_answers(const std::string& path) {
   return answers;
 }
 
+// The stylus turns 2 mrad a sample about (0.6, 0, 0.8): quaternion columns added to a trace.
+const std::string kTurn = " --orientation-cols qw,qx,qy,qz";
+void add_turning_stylus(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, out;
+  std::getline(in, line);
+  out = line + ",qw,qx,qy,qz\n";
+  for (int k = 0; std::getline(in, line); ++k) {
+    const double half = 0.001 * k;
+    char q[128];
+    std::snprintf(q, sizeof q, ",%.17g,%.17g,0,%.17g\n", std::cos(half), 0.6 * std::sin(half),
+                  0.8 * std::sin(half));
+    out += line + q;
+  }
+  in.close();
+  std::ofstream(path) << out;
+}
+
 TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
   const std::string dir = scratch_dir();
   ASSERT_EQ(run_hapvox("trace make press-release -o " + dir +
                        "/press.csv --start-mm 24,24,29 --travel-mm 3.5 --hold-s 0.3")
                 .exit_code,
             0);
-  const std::string tool = " --volume block:dims=48 --tool-diameter-mm 8 -q";
+  add_turning_stylus(dir + "/press.csv");
+  const std::string tool = " --volume block:dims=48 --tool-diameter-mm 8 -q" + kTurn;
   ASSERT_EQ(
       run_hapvox("replay " + dir + "/press.csv" + tool + " -o " + dir + "/direct.h5").exit_code, 0);
   const std::uint16_t port = free_port();
@@ -76,8 +98,9 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
   for (int i = 0; i < 500 && !listening(port); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  const testing::CommandResult sim = run_hapvox("device-sim " + dir + "/press.csv --to " + device +
-                                                " --forces-out " + dir + "/forces.csv");
+  const testing::CommandResult sim =
+      run_hapvox("device-sim " + dir + "/press.csv" + kTurn + " --to " + device + " --forces-out " +
+                 dir + "/forces.csv");
   hapvox.join();
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   ASSERT_EQ(live.exit_code, 0) << live.err;
@@ -114,13 +137,30 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
     }
   }
   EXPECT_TRUE(has_round_trip);
+  // The stylus orientation came through the bridge too: each tick holds the orientation the
+  // direct replay has for the sample its packet carried (the end packet: the last sample's).
+  const std::vector<double> turn =
+      haptics::read_session_column(dir + "/live.h5", "/device_orientation");
+  const std::vector<double> direct_turn =
+      haptics::read_session_column(dir + "/direct.h5", "/device_orientation");
+  ASSERT_EQ(turn.size(), 4 * sequence.size());
+  const std::size_t samples = direct_turn.size() / 4;
+  for (std::size_t row = 0; row < sequence.size(); ++row) {
+    const std::size_t k = std::min(static_cast<std::size_t>(sequence[row]), samples - 1);
+    for (int c = 0; c < 4; ++c) ASSERT_EQ(turn[4 * row + c], direct_turn[4 * k + c]) << row;
+  }
 
   // The trace the live session recorded, replayed in lockstep, steps the model through the
   // same positions tick for tick: the same forces, bit for bit, on every tick sent with the
   // same ramp factor (a realtime tick that tripped the watchdog, or fell silent, was ramped
   // where the lockstep replay is not: those are the ticks that may differ).
+  // Its trace (qw,qx,qy,qz beside t,x,y,z) carries the orientation too.
   ASSERT_EQ(run_hapvox("replay " + dir + "/live.csv" + tool + " -o " + dir + "/again.h5").exit_code,
             0);
+  const std::vector<double> again_turn =
+      haptics::read_session_column(dir + "/again.h5", "/device_orientation");
+  ASSERT_EQ(again_turn.size(), turn.size());
+  for (std::size_t i = 0; i < turn.size(); ++i) EXPECT_NEAR(again_turn[i], turn[i], 1e-15) << i;
   testing::expect_same_columns(
       dir + "/live.h5", dir + "/again.h5",
       {"/tool_position_mm", "/displacement_mm", "/contact_area_mm2", "/contact"});
