@@ -323,10 +323,14 @@ void FemBackgroundStage::begin() {
 }
 
 void FemBackgroundStage::run_lockstep_tick(std::size_t tick, TickRecord& row,
-                                           const LockstepRender*) {
+                                           const LockstepRender* render) {
   if ((tick + 1) % model_->options().fem_every_ticks == 0) {
     fem_step(row.tool_position_mm, row.tool_position_mm + row.displacement_mm,
              static_cast<std::int64_t>(tick));
+    if (render != nullptr && render->mesh_changed) {
+      const FemFrame& step = frames_.back();
+      render->mesh_changed(step.tick, model_->mesh(), step.mesh, step.displacement_mm);
+    }
   }
 }
 

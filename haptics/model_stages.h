@@ -1,6 +1,7 @@
 #pragma once
 // The seams between the loops and a deformation model (docs/architecture.md). A model
-// (the voxel model of Prados today: haptics/voxel_model.h; Nakao's proxy-mesh FEM next)
+// (the voxel model of Prados: haptics/voxel_model.h; Nakao's proxy-mesh FEM:
+// haptics/fem_model.h)
 // is used by the lockstep and realtime loops, the session writer and the renderer only
 // through these:
 //
@@ -12,7 +13,8 @@
 //                     force stage reads through lock-free hand-offs of its own.
 //   render side       what a frame is drawn with: the tick's tool pose and displacement
 //                     (RenderToolState, the FFD's input, from the row), plus whatever the
-//                     background stage streams to the render feed (changed voxels today).
+//                     background stage streams to the render feed (changed voxels, the
+//                     proxy mesh's node displacements).
 //
 // The loops own the threads and the clock; a stage owns its model's state and hand-offs.
 
@@ -85,11 +87,17 @@ struct SculptSummary {
 
 /// Lockstep rendering: `frame` is called every `every_ticks` ticks (and after the last)
 /// with the tool pose of that tick; `voxel_changed` for every voxel the background stage
-/// changed, as it is published to the force stage, so a renderer's copy stays in step.
+/// changed, as it is published to the force stage, so a renderer's copy stays in step;
+/// `mesh_changed` after every FEM step of the proxy-mesh model, with the tick it solved for,
+/// the mesh (the run's `mesh_index`-th: 0 its first) and its node displacements (mm, 3 per
+/// vertex), valid for the call only.
 struct LockstepRender {
   std::size_t every_ticks = 100;
   std::function<void(std::size_t tick, const RenderToolState& tool)> frame;
   std::function<void(const openvdb::Coord& ijk, float density)> voxel_changed;
+  std::function<void(std::int64_t tick, const engine::fem::TetMesh& mesh, int mesh_index,
+                     const std::vector<double>& displacement_mm)>
+      mesh_changed;
 };
 
 /// The background stage of a deformation model.

@@ -254,7 +254,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   // lockstep work for it and fills its fields; tick k+1 waits for that.
   const bool paced = options.background_in_lockstep && background != nullptr;
   auto handoff = std::make_unique<PacedHandoff>();
-  LockstepRender paced_render;  // the background stage's changed voxels, to the render thread
+  LockstepRender paced_render;  // the background stage's changes, to the render thread
   paced_render.every_ticks = 0;
   const auto start = Clock::now() + std::chrono::milliseconds(5);
   std::thread force_thread([&] {
@@ -337,6 +337,16 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
     if (feed != nullptr) {
       paced_render.voxel_changed = [&feed](const openvdb::Coord& ijk, float density) {
         feed->voxels.offer_patch(VoxelPatch{ijk, density});
+      };
+      // The render thread's copy of a FEM step (allocates in the first few slots only).
+      paced_render.mesh_changed = [&feed](std::int64_t tick, const engine::fem::TetMesh& mesh,
+                                          int mesh_index, const std::vector<double>& u_mm) {
+        MeshDisplacement& out = feed->mesh.write_slot();
+        out.tick = tick;
+        out.mesh = &mesh;
+        out.mesh_index = mesh_index;
+        out.displacement_mm = u_mm;
+        feed->mesh.publish();
       };
     }
     background_thread = std::thread([&] {

@@ -12,12 +12,16 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <thread>
+#include <vector>
 
 #include "engine/errors.h"
 #include "engine/fem/tet_mesh.h"
 #include "fem_fixtures.h"
 #include "haptics/realtime.h"
 #include "haptics/replay.h"
+#include "haptics/session.h"
+#include "test_data.h"
 
 namespace hapvox::haptics {
 namespace {
@@ -230,6 +234,66 @@ TEST(FemRealtime, TheFemThreadStepsBesideTheForceThreadAndItsForcesAreFinite) {
   EXPECT_EQ(fem.frames().size(), fem.steps());
   EXPECT_GT(summary.peak_force_n, 0.05);
   EXPECT_EQ(force.counters().nonfinite_forces, 0u);
+}
+
+// sculpt's FEM segments: the FEM paced in lockstep with the realtime force loop (each step
+// after its tick, before the next) steps exactly as a lockstep run, and every step reaches
+// the render thread through the feed.
+TEST(FemRealtime, PacedInLockstepItStepsAsTheLockstepRunAndFeedsTheRenderThread) {
+  const FemModel model(block(), options(FemInteraction::kPress, 10));
+  TraceDevice device = press_path();
+  const FemRun lockstep = run_lockstep(model, device);
+  auto handoff = std::make_unique<FemHandoff>();
+  FemForceStage force(model, *handoff);
+  FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
+  RealtimeOptions realtime;
+  realtime.scheduler.lock_memory = false;
+  realtime.background_in_lockstep = true;
+  std::vector<FemFrame> drawn;  // the steps the render thread saw, in order
+  realtime.render_loop = [&drawn](RenderFeed& feed, RenderTiming&) {
+    while (true) {
+      const bool done = feed.done.load(std::memory_order_acquire);
+      const MeshDisplacement& latest = feed.mesh.read();
+      if (latest.tick >= 0 && (drawn.empty() || drawn.back().tick != latest.tick)) {
+        drawn.push_back({latest.tick, latest.displacement_mm, latest.mesh_index});
+      }
+      if (done) break;
+      std::this_thread::sleep_for(std::chrono::microseconds(300));
+    }
+  };
+  const std::string path = testing::scratch_dir() + "/paced.h5";
+  SessionWriter session(path);
+  const ReplaySummary summary =
+      replay_realtime(force, &fem, device, no_ramp(), &session, {}, nullptr, nullptr, realtime);
+  session.close();
+  ASSERT_EQ(summary.ticks, device.tick_count());
+  ASSERT_EQ(fem.frames().size(), lockstep.frames.size());
+  for (std::size_t k = 0; k < lockstep.frames.size(); ++k) {
+    ASSERT_EQ(fem.frames()[k].tick, lockstep.frames[k].tick) << k;
+    ASSERT_EQ(fem.frames()[k].displacement_mm, lockstep.frames[k].displacement_mm) << k;
+  }
+  // The same force wherever the loop sent it unramped (a watchdog trip on a loaded machine
+  // ramps a tick, never changes what it computed); the press is felt.
+  const std::vector<double> force_n = read_session_column(path, "/force_n");
+  const std::vector<double> scale = read_session_column(path, "/force_scale");
+  std::size_t compared = 0;
+  for (std::size_t k = 0; k < scale.size(); ++k) {
+    if (scale[k] != 1.0) continue;
+    ++compared;
+    for (int a = 0; a < 3; ++a) ASSERT_EQ(force_n[3 * k + a], lockstep.force_n[k][a]) << k;
+  }
+  EXPECT_GT(compared, 100u);
+  EXPECT_GT(peak_n(lockstep.force_n), 0.05);
+  // The render thread saw FEM steps (not only the first, begin()'s, which the paced loop does
+  // not hand over), each exactly as the step made it, and the last one at the end.
+  ASSERT_GE(drawn.size(), 2u);
+  for (const FemFrame& step : drawn) {
+    const std::size_t k = static_cast<std::size_t>(step.tick + 1) / 10;
+    ASSERT_LT(k, lockstep.frames.size());
+    ASSERT_EQ(lockstep.frames[k].tick, step.tick);
+    ASSERT_EQ(lockstep.frames[k].displacement_mm, step.displacement_mm) << step.tick;
+  }
+  EXPECT_EQ(drawn.back().tick, lockstep.frames.back().tick);
 }
 
 }  // namespace
