@@ -38,8 +38,8 @@ double number(const std::string& word, const char* what, const std::string& wher
 }  // namespace
 
 const std::vector<std::string>& pointer_script_keys() {
-  static const std::vector<std::string> keys = {"space",  "up", "down", "left", "right",
-                                                "escape", "[",  "]",    "p",    "z"};
+  static const std::vector<std::string> keys = {"space", "up", "down", "left", "right", "escape",
+                                                "[",     "]",  "p",    "z",    "m"};
   return keys;
 }
 

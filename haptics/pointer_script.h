@@ -10,7 +10,7 @@
 //   2.4  release
 //   1.0  wheel -2              two notches: + pushes the tool in, - pulls it out
 //   1.2  key space down        a key down or up: space, up, down, left, right, escape, and
-//                              [ ] (tool size), p (plastic), z (undo)
+//                              [ ] (tool size), p (plastic), z (undo), m (model)
 //   2.5  screenshot groove.png the window as it is drawn then, as a PNG
 //   3.0  quit                  ends the session, as closing the window does
 //

@@ -28,13 +28,8 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (f.trace_path.empty() && !live) {
     throw InputError("trace", "a trace file is needed (or --device udp:HOST:PORT)");
   }
-  if (f.front_end != nullptr) {
-    if (f.model != "voxel") {
-      throw InputError("--model",
-                       "sculpt runs the voxel model (the proxy mesh is refined along "
-                       "a trace, which a live session does not have ahead)");
-    }
-    if (!f.render_dir.empty()) throw InputError("--render-dir", "sculpt draws in its window");
+  if (f.front_end != nullptr && !f.render_dir.empty()) {
+    throw InputError("--render-dir", "sculpt draws in its window");
   }
   if (f.model == "fem") return run_fem_replay(f, command_line);
   if (f.model != "voxel")
@@ -353,10 +348,17 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags, bool with_inputs) {
                   "fem: T_S:FROM=TO: from T_S s into the trace, label FROM's voxels take label "
                   "TO and the mesh is rebuilt in the background (repeatable)")
       ->allow_extra_args(false);
-  for (const char* name :
-       {"--spacing-mm", "--boundary-levels", "--interaction", "--fem-solver", "--coupling-n-per-mm",
-        "--candidate-margin-mm", "--fem-every-ticks", "--fem-rate-hz", "--relabel"}) {
-    flags->fem_only_options.push_back(cmd->get_option(name));
+  if (with_inputs) {
+    cmd->add_flag("--no-tool-refine", flags->no_tool_refine,
+                  "fem: do not refine the proxy mesh where the trace's tool goes (a sculpt "
+                  "session's FEM segments are meshed so: replay their traces with it)");
+  }
+  for (const char* name : {"--spacing-mm", "--boundary-levels", "--interaction", "--fem-solver",
+                           "--coupling-n-per-mm", "--candidate-margin-mm", "--fem-every-ticks",
+                           "--fem-rate-hz", "--relabel", "--no-tool-refine"}) {
+    if (const CLI::Option* option = cmd->get_option_no_throw(name)) {
+      flags->fem_only_options.push_back(option);
+    }
   }
   cmd->add_flag("--plastic", flags->plastic,
                 "Sculpt: incremental plasticity, deletion and progressive relaxation");

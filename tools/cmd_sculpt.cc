@@ -10,6 +10,10 @@
 // (NAME-K.h5, NAME-K.csv, NAME-K-start.vdb), so each replays in lockstep on its own. Undo
 // replays the stroke's segment in lockstep up to the tick the stroke began: the clay the
 // next segment starts from is exactly the clay before the stroke.
+//
+// With --materials, m switches between the voxel model and Nakao's proxy-mesh FEM (--model
+// fem starts with it): a FEM segment presses the clay as it is, the FEM paced in lockstep
+// with the force loop, and replays with `replay --model fem --no-tool-refine`.
 
 #include <algorithm>
 #include <cmath>
@@ -20,6 +24,7 @@
 
 #include "engine/errors.h"
 #include "engine/volume_io.h"
+#include "haptics/mesh_file.h"
 #include "haptics/mouse_device.h"
 #include "haptics/pointer_script.h"
 #include "haptics/trace.h"
@@ -73,6 +78,8 @@ const char* end_name(SegmentEnd end) {
       return "p (plastic on/off)";
     case SegmentEnd::kUndo:
       return "z (undo)";
+    case SegmentEnd::kSwitchModel:
+      return "m (the voxel or FEM model)";
     case SegmentEnd::kQuit:
       break;
   }
@@ -85,7 +92,22 @@ struct Segment {
   double diameter_mm = 0.0;
   bool plastic = true;
   SegmentEnd end = SegmentEnd::kQuit;
+  bool fem = false;  // the proxy-mesh FEM model (else the voxel model)
 };
+
+// The flags a segment's trace replays with, after TRACE --volume VOLUME.
+std::string replay_flags(const Segment& s) {
+  char diameter[48];
+  std::snprintf(diameter, sizeof diameter, " --tool-diameter-mm %g", s.diameter_mm);
+  return std::string(s.fem       ? " --model fem --no-tool-refine"
+                     : s.plastic ? " --plastic"
+                                 : "") +
+         diameter;
+}
+
+const char* model_name(const Segment& s) {
+  return s.fem ? "FEM (proxy mesh)" : s.plastic ? "plastic" : "elastic";
+}
 
 // A plastic stroke not undone: its segment's starting clay, trace and tool, and the tick the
 // stroke began at.
@@ -133,15 +155,15 @@ std::string clay_before(const Stroke& stroke, const ReplayFlags& f, const std::s
 void print_segments(const std::vector<Segment>& segments) {
   std::printf(
       "  segments         %zu, each replayed in lockstep on its own (with sculpt's force "
-      "flags):\n",
+      "and FEM flags):\n",
       segments.size());
   for (std::size_t i = 0; i < segments.size(); ++i) {
     const Segment& s = segments[i];
     std::printf(
         "    %zu  %s: tool %.1f mm, %s, ended by %s\n       hapvox replay %s --volume "
-        "%s%s --tool-diameter-mm %g\n",
-        i + 1, s.output.c_str(), s.diameter_mm, s.plastic ? "plastic" : "elastic", end_name(s.end),
-        s.trace.c_str(), s.volume.c_str(), s.plastic ? " --plastic" : "", s.diameter_mm);
+        "%s%s\n",
+        i + 1, s.output.c_str(), s.diameter_mm, model_name(s), end_name(s.end), s.trace.c_str(),
+        s.volume.c_str(), replay_flags(s).c_str());
   }
 }
 
@@ -149,6 +171,9 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
   ReplayFlags& f = flags.replay;
   if (flags.elastic && f.plastic) throw InputError("--elastic", "cannot go with --plastic");
   if (flags.elastic && !f.sculpt_out.empty()) throw InputError("--sculpt-out", "needs --plastic");
+  if (f.model != "voxel" && f.model != "fem") {
+    throw InputError("--model", "unknown model '" + f.model + "' (voxel or fem)");
+  }
   f.realtime = true;
   f.plastic = !flags.elastic;
   if (f.trace_out.empty()) f.trace_out = fs::path(f.output).replace_extension(".csv").string();
@@ -182,10 +207,12 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
     outputs.push_back({f.sculpt_out + ".nrrd", "--sculpt-out", ""});
   }
   check_outputs_spare_inputs(outputs, inputs);
-  // What segment K writes: its session and trace, and the clay segment K+1 starts from.
+  // What segment K writes: its session, trace (and a FEM segment's .xdmf), and the clay
+  // segment K+1 starts from.
   auto check_segment_outputs = [&](int k) {
     const std::string next = start_prefix(f.output, k + 1);
     check_outputs_spare_inputs({{segment_path(f.output, k), "--output", ""},
+                                {haptics::xdmf_path_for(segment_path(f.output, k)), "--output", ""},
                                 {segment_path(f.trace_out, k), "--trace-out", ""},
                                 {next + ".vdb", "--output", ""},
                                 {next + ".nrrd", "--output", ""},
@@ -203,9 +230,18 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
   std::string model_label;
   bool can_undo = false;
   bool segment_plastic = f.plastic;
+  bool segment_fem = false;
+  const bool can_switch_model = !f.fem_mesh.materials.empty();  // the FEM model needs one
   LiveFrontEnd front_end;
   front_end.name = f.device.empty() ? "mouse" : f.device;
   front_end.make_device = [&](const engine::DensityField& field, double tool_radius_mm) {
+    // The tool starts above the middle of the volume's top, clear of it; a later segment
+    // where the last one left it (a device program's tool: wherever it sends it first).
+    const Eigen::Vector3d lo = field.world_min_mm(), hi = field.world_max_mm();
+    front_end.start_mm = start_mm
+                             ? *start_mm
+                             : Eigen::Vector3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()),
+                                               hi.z() + tool_radius_mm + 2.0);
     if (!f.device.empty()) {
       bridge = make_bridge_device(f, f.transform.resolve_fixed());
       front_end.bridge = bridge.get();
@@ -213,15 +249,10 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
       watched = device.get();
       return std::unique_ptr<haptics::Device>(std::move(device));
     }
-    // The tool starts above the middle of the volume's top, clear of it; a later segment
-    // where the last one left it.
-    const Eigen::Vector3d lo = field.world_min_mm(), hi = field.world_max_mm();
     haptics::MouseDeviceOptions options;
     options.rate_hz = f.trace.rate_hz;
     options.max_speed_mm_s = flags.tool_speed_mm_s;
-    options.start_mm = start_mm ? *start_mm
-                                : Eigen::Vector3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()),
-                                                  hi.z() + tool_radius_mm + 2.0);
+    options.start_mm = front_end.start_mm;
     auto device = std::make_unique<haptics::MouseDevice>(options);
     mouse = device.get();
     watched = mouse;
@@ -244,6 +275,9 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
     segment.model_label = model_label;
     segment.plastic = segment_plastic;
     segment.can_undo = can_undo;
+    segment.proxy_mesh = segment_fem;
+    segment.can_toggle_plastic = !segment_fem;
+    segment.can_switch_model = can_switch_model;
     segment.device_label = front_end.name;
     return window->loop(field, *watched, mouse, segment);
   };
@@ -253,24 +287,32 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
   std::vector<Stroke> strokes;  // plastic strokes not undone, in order
   std::string volume = f.volume;
   double diameter_mm = f.force.options.tool.diameter_mm;
-  bool plastic = f.plastic;
+  bool plastic = f.plastic;  // the voxel model's segments sculpt
+  bool fem = f.model == "fem";
   for (int k = 1;; ++k) {
     if (k > 1) check_segment_outputs(k);
     ReplayFlags run = f;
     run.front_end = &front_end;
     run.volume = volume;
-    run.plastic = plastic;
+    run.model = fem ? "fem" : "voxel";
+    run.plastic = plastic && !fem;
+    run.no_tool_refine = true;
+    run.fem_only_options.clear();  // the FEM flags are for its segments: kept, not refused
     run.force.options.tool.diameter_mm = diameter_mm;
     run.output = segment_path(f.output, k);
     run.trace_out = segment_path(f.trace_out, k);
-    run.sculpt_out = plastic ? start_prefix(f.output, k + 1) : "";
-    model_label = plastic ? "voxel, plastic" : "voxel, elastic";
-    segment_plastic = plastic;
+    run.sculpt_out = run.plastic ? start_prefix(f.output, k + 1) : "";
+    model_label = fem           ? "FEM (proxy mesh), press"
+                  : run.plastic ? "voxel, plastic"
+                                : "voxel, elastic";
+    segment_plastic = run.plastic;
+    segment_fem = fem;
     can_undo = !strokes.empty();
     run_replay(run, command_line);
     const SculptSegmentReport& report = window->segment();
-    segments.push_back({run.output, run.trace_out, volume, diameter_mm, plastic, report.end});
-    if (plastic) {
+    segments.push_back(
+        {run.output, run.trace_out, volume, diameter_mm, run.plastic, report.end, fem});
+    if (run.plastic) {
       for (const std::int64_t tick : report.press_ticks) {
         strokes.push_back({k, volume, run.trace_out, diameter_mm, tick});
       }
@@ -285,6 +327,9 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
         break;
       case SegmentEnd::kTogglePlastic:
         plastic = !plastic;
+        break;
+      case SegmentEnd::kSwitchModel:
+        fem = !fem;
         break;
       case SegmentEnd::kUndo:
         if (!strokes.empty()) {
@@ -328,8 +373,8 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
   }
 
   const SculptWindowReport& report = window->report();
-  std::printf("  window           %d frames, %d strokes (%d picked nothing)\n", report.frames,
-              report.presses, report.picks_missed);
+  std::printf("  window           %d frames, %d strokes (%d picked nothing), %d FEM steps drawn\n",
+              report.frames, report.presses, report.picks_missed, report.fem_steps_drawn);
   for (const std::string& path : report.screenshots) {
     std::printf("  screenshot       %s\n", path.c_str());
   }
@@ -337,7 +382,8 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
     std::printf(
         "  trace            %s (hapvox replay %s --volume %s%s: the same ticks in "
         "lockstep)\n",
-        f.trace_out.c_str(), f.trace_out.c_str(), f.volume.c_str(), f.plastic ? " --plastic" : "");
+        f.trace_out.c_str(), f.trace_out.c_str(), f.volume.c_str(),
+        replay_flags(segments.front()).c_str());
   } else {
     print_segments(segments);
   }
@@ -353,7 +399,8 @@ void add_sculpt_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "sculpt",
       "Open a window where the mouse drags the tool over a volume: the force loop at 1 kHz, "
-      "the clay sculpted and relaxed beside it; writes the session and its trace on exit");
+      "the clay sculpted and relaxed beside it (or, with --materials and the m key or --model "
+      "fem, pressed through Nakao's proxy-mesh FEM); writes the session and its trace on exit");
   cmd->add_option("volume", flags->replay.volume, volume_help())->required();
   cmd->add_option("--output,-o", flags->replay.output, "Session file to write (.h5)")
       ->capture_default_str();

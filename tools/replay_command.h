@@ -34,6 +34,9 @@ struct LiveFrontEnd {
   /// With --device: the bridge behind the window's device, set by make_device (its counts
   /// go in the session and the report as a `replay --device` run's do).
   const haptics::BridgeDevice* bridge = nullptr;
+  /// Where the tool starts (volume mm), set by make_device: the FEM model's first snapshot
+  /// is made there, as a trace replay's is at the trace's first position.
+  Eigen::Vector3d start_mm = Eigen::Vector3d::Zero();
 };
 
 struct ReplayFlags {
@@ -69,6 +72,9 @@ struct ReplayFlags {
   FemCliOptions fem_mesh;             // --materials, --labels, --seed, ...
   FemRunFlags fem_run;                // --interaction, --fem-solver, --coupling-n-per-mm, ...
   std::vector<std::string> relabels;  // --relabel T_S:FROM=TO (tools/relabel.h)
+  // --no-tool-refine: the proxy mesh is not refined along the trace's tool path (as in a
+  // sculpt session's FEM segments, whose path is not known ahead).
+  bool no_tool_refine = false;
   // The options only --model fem reads (owned by the command's CLI::App): refused with
   // --model voxel when given, rather than silently ignored.
   std::vector<const CLI::Option*> fem_only_options;

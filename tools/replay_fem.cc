@@ -2,12 +2,16 @@
 // -o S.h5: the proxy-FEM model (haptics/fem_model.h) through the same loops, session and
 // report as the voxel model; the session also holds the mesh and the node displacements of
 // every FEM step, and S.xdmf beside it opens them in ParaView as a time series.
+// `hapvox sculpt` runs it too (ReplayFlags::front_end): its window's device moves the tool
+// and the FEM is paced in lockstep with the force loop, so the session's trace replays it
+// (with --no-tool-refine: the mesh a live session builds is not refined along a path).
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "engine/errors.h"
 #include "haptics/fem_model.h"
@@ -52,6 +56,8 @@ haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const hapti
 }
 
 ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_line) {
+  // sculpt's window (or its bridge) moves the tool: no trace, the FEM paced in lockstep.
+  const bool live = f.front_end != nullptr;
   // Check everything the user gave before reading big files or creating output.
   if (f.plastic)
     throw InputError("--plastic", "needs --model voxel (the FEM model does not sculpt)");
@@ -66,13 +72,25 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                      "cannot be combined with --relabel (a relabelled mesh would "
                      "lose the cut)");
   }
+  if (live) {
+    if (options.interaction == haptics::FemInteraction::kGrab) {
+      throw InputError("--interaction",
+                       "sculpt presses with the FEM model (a grab holds what lies within "
+                       "reach of a trace's first position, which a live session has not)");
+    }
+    if (!relabels.empty())
+      throw InputError("--relabel", "needs a trace (its times are trace times)");
+    if (incision && incision->at_s) {
+      throw InputError(incision->source, "at_s needs a trace: sculpt cuts from the start");
+    }
+  }
   const haptics::TraceColumns columns = f.trace.columns();
   const engine::IntensityMapping mapping = f.mapping.resolve();
   check_loop_flags(f);
   check_output_path(f.output, "--output");
   const std::string xdmf = haptics::xdmf_path_for(f.output);
   std::vector<InputPath> inputs = volume_inputs(f.volume);
-  inputs.push_back({f.trace_path, "trace"});
+  if (!live) inputs.push_back({f.trace_path, "trace"});
   for (const InputPath& input : fem_inputs(f.fem_mesh)) inputs.push_back(input);
   if (incision) inputs.push_back({incision->source, "incision file"});
   if (!f.render_dir.empty()) {
@@ -80,32 +98,50 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   }
   check_outputs_spare_inputs({{f.output, "--output", ""},
                               {xdmf, "--output", ""},
+                              {f.trace_out, "--trace-out", ""},
                               {f.render_dir, "--render-dir", kFrameFileNames}},
                              inputs);
 
-  const haptics::Trace trace = haptics::read_trace(f.trace_path, columns);
+  std::optional<haptics::Trace> trace;
+  if (!live) trace = haptics::read_trace(f.trace_path, columns);
   const engine::DensityField field = engine::load_volume(f.volume, mapping);
-  const haptics::DeviceTransform transform = f.transform.resolve(trace, field);
-  haptics::ResampleOptions resample_options;
-  resample_options.rate_hz = f.trace.rate_hz;
-  resample_options.max_gap_s = f.trace.max_gap_s;
-  haptics::TraceDevice device(haptics::resample(trace, resample_options), transform);
-  if (device.tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
+  // The device: a replayed trace, or the window's (sculpt).
+  std::unique_ptr<haptics::TraceDevice> traced;
+  std::unique_ptr<haptics::Device> fronted;
+  if (live) {
+    fronted = f.front_end->make_device(field, options.tool_radius_mm);
+  } else {
+    haptics::ResampleOptions resample_options;
+    resample_options.rate_hz = f.trace.rate_hz;
+    resample_options.max_gap_s = f.trace.max_gap_s;
+    traced = std::make_unique<haptics::TraceDevice>(haptics::resample(*trace, resample_options),
+                                                    f.transform.resolve(*trace, field));
+    if (traced->tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
+  }
+  haptics::Device& device = live ? *fronted : static_cast<haptics::Device&>(*traced);
+  // A tick's time: the trace's, or (live) ticks from zero at the loop's rate.
+  auto time_s = [&](std::int64_t tick) {
+    return traced ? traced->time_s(static_cast<std::size_t>(tick))
+                  : static_cast<double>(tick) / device.rate_hz();
+  };
   if (!f.render_dir.empty()) check_render_flags(f, field);  // before the mesh is built
-  const ProxyInputs proxy_inputs =
-      proxy_inputs_from_cli(f.volume, f.fem_mesh, fem_tool_region(device, options.tool_radius_mm));
+  // The mesh is refined further where a trace's tool goes; a live session's path is not
+  // known ahead (its trace replays with --no-tool-refine).
+  std::optional<engine::fem::Region> tool_region;
+  if (traced && !f.no_tool_refine) tool_region = fem_tool_region(*traced, options.tool_radius_mm);
+  const ProxyInputs proxy_inputs = proxy_inputs_from_cli(f.volume, f.fem_mesh, tool_region);
+  const std::size_t ticks = traced ? traced->tick_count() : 0;
   std::vector<haptics::LabelChange> changes =
-      label_changes(relabels, proxy_inputs, device.tick_count(), device.rate_hz());
+      label_changes(relabels, proxy_inputs, ticks, device.rate_hz());
   engine::proxy::ProxyMesh proxy = engine::proxy::build_proxy_mesh(
       proxy_inputs.labels, proxy_inputs.materials, proxy_inputs.mesh);
-  if (incision) {
-    plan_incision(*incision, false, device.tick_count(), device.rate_hz(), proxy, changes);
-  }
+  if (incision) plan_incision(*incision, live, ticks, device.rate_hz(), proxy, changes);
   const haptics::FemModel model(std::move(proxy), options);
   // The stages (haptics/fem_model.h); the loops see only their seams.
   auto handoff = std::make_unique<haptics::FemHandoff>();
   haptics::FemForceStage force(model, *handoff);
-  haptics::FemBackgroundStage fem(model, *handoff, device.tool_position_mm(0));
+  haptics::FemBackgroundStage fem(model, *handoff,
+                                  traced ? traced->tool_position_mm(0) : f.front_end->start_mm);
   fem.set_label_changes(std::move(changes));
   // Frames show the volume as the proxy mesh deforms it; a grab's capture sphere is not drawn
   // (it would hide what it holds), a press's tool is.
@@ -113,9 +149,17 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
       f, field,
       options.interaction == haptics::FemInteraction::kPress ? options.tool_radius_mm : 0.0);
   if (recorder) recorder->use_proxy_mesh();
+  // The window, before the session file (a machine without a display fails before any output).
+  haptics::RenderLoop window_loop;
+  if (live) window_loop = f.front_end->make_render_loop(field, device, options.tool_radius_mm);
 
   haptics::SessionWriter session(f.output);
-  write_run_attributes(session, f, command_line, columns, mapping, field, device, &device.trace());
+  write_run_attributes(session, f, command_line, columns, mapping, field, device,
+                       traced ? &traced->trace() : nullptr);
+  session.set_attribute("fem_schedule", std::string(live         ? "lockstep, paced by the clock"
+                                                    : f.realtime ? "own thread"
+                                                                 : "lockstep"));
+  session.set_attribute("fem_tool_refine", std::int64_t{tool_region ? 1 : 0});
   if (incision) {
     session.set_attribute("incision", incision->source);
     session.set_attribute("incision_width_mm", incision->width_mm);
@@ -131,6 +175,14 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
         realtime.render_loop = recorder->realtime_loop(f.render_fps);
         realtime.scheduler.lock_future_memory = false;  // Mesa maps memory on its threads
       }
+      if (live) {
+        // Paced in lockstep (a FEM step after every fem_every_ticks-th tick, before the
+        // next): the session's trace replays it bit for bit.
+        realtime.stop = stop_request();
+        realtime.background_in_lockstep = true;
+        realtime.render_loop = window_loop;
+        realtime.scheduler.lock_future_memory = false;
+      }
       s = haptics::replay_realtime(force, &fem, device, f.limits, &session, progress, nullptr,
                                    &timing, realtime);
     } else {
@@ -141,13 +193,16 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
     }
     force.write_attributes(session);
     write_summary_attributes(session, f, s, timing);
-    if (f.realtime) {
+    if (f.realtime && !live) {
       session.write_array("timing/fem_step_ns", timing.relax_slice_ns, "ns");
       session.write_array("timing/fem_step_start_ns", timing.relax_slice_start_ns, "ns");
       session.set_attribute("summary_fem_step_p50_us", timing.relax_slice.p50_us);
       session.set_attribute("summary_fem_step_p99_us", timing.relax_slice.p99_us);
     }
-    fem.write_session(session, device.time_s(0), device.rate_hz());
+    fem.write_session(session, time_s(0), device.rate_hz());
+    if (live && f.front_end->bridge != nullptr) {
+      write_bridge_attributes(session, *f.front_end->bridge);
+    }
     if (recorder) write_render_attributes(session, f, *recorder, timing);
     haptics::write_proxy_mesh(session.file_handle(), model.proxy());
   } catch (...) {
@@ -166,13 +221,15 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
     series[k].displacement_dataset = (k == 0 ? std::string("/fem") : group) + "/displacement_mm";
   }
   for (const haptics::FemFrame& frame : fem.frames()) {
-    series[frame.mesh].times_s.push_back(device.time_s(static_cast<std::size_t>(frame.tick)));
+    series[frame.mesh].times_s.push_back(time_s(frame.tick));
   }
   haptics::write_xdmf_time_series(xdmf, std::filesystem::path(f.output).filename().string(),
                                   series);
+  if (!f.trace_out.empty()) write_recorded_trace(f.output, f.trace_out);
 
-  std::printf("replayed %s on %s (proxy FEM, %s %s) -> %s\n", f.trace_path.c_str(),
-              f.volume.c_str(), haptics::fem_solver_name(options.solver),
+  std::printf("%s %s on %s (proxy FEM, %s %s) -> %s\n", live ? "sculpted with" : "replayed",
+              live ? f.front_end->name.c_str() : f.trace_path.c_str(), f.volume.c_str(),
+              haptics::fem_solver_name(options.solver),
               haptics::fem_interaction_name(options.interaction), f.output.c_str());
   print_run_report(f, s, timing, device,
                    "(contact solve on the FEM's snapshot, " +
@@ -181,21 +238,21 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   std::printf("  mesh             %d vertices, %d tets, dihedral %.1f..%.1f deg, %zu fixed DOFs\n",
               mesh.vertex_count, mesh.tet_count, mesh.quality.min_dihedral_deg,
               mesh.quality.max_dihedral_deg, model.fixed_dofs().size());
+  const std::string every = "every " + std::to_string(options.fem_every_ticks) + " ticks";
   std::printf("  fem              %llu steps (%s), %zu vertices grabbed\n",
               static_cast<unsigned long long>(fem.steps()),
-              f.realtime ? (std::to_string(options.fem_rate_hz) + " Hz thread").c_str()
-                         : ("every " + std::to_string(options.fem_every_ticks) + " ticks").c_str(),
+              live         ? (every + ", paced by the clock").c_str()
+              : f.realtime ? (std::to_string(options.fem_rate_hz) + " Hz thread").c_str()
+                           : every.c_str(),
               fem.captured_vertices().size());
-  if (f.realtime) print_stats_line("fem steps", timing.relax_slice);
+  if (f.realtime && !live) print_stats_line("fem steps", timing.relax_slice);
   for (const auto& remesh : fem.remeshes()) {
     const engine::fem::ConformingMeshReport& r = remesh->model->proxy().report;
     std::printf(
         "  remesh           %s at %.3f s: %d vertices, %d tets, built in %.0f ms, "
         "taken over at %.3f s\n",
-        remesh->description.c_str(),
-        device.time_s(static_cast<std::size_t>(remesh->change_tick)) - device.time_s(0),
-        r.vertex_count, r.tet_count, 1e3 * remesh->build_s,
-        device.time_s(static_cast<std::size_t>(remesh->taken_tick)) - device.time_s(0));
+        remesh->description.c_str(), time_s(remesh->change_tick) - time_s(0), r.vertex_count,
+        r.tet_count, 1e3 * remesh->build_s, time_s(remesh->taken_tick) - time_s(0));
     if (options.interaction == haptics::FemInteraction::kGrab) {
       if (remesh->captured_vertices > 0) {
         std::printf("                   %d vertices grabbed on it\n", remesh->captured_vertices);
@@ -218,6 +275,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                 recorder->resample_ms_total() / std::max(1, recorder->resamples()),
                 render::gradient_transform_name(recorder->setup().resample.gradient));
   }
+  if (live && f.front_end->bridge != nullptr) print_bridge_lines(*f.front_end->bridge);
   print_run_footer(s);
   return ReplayResult{s, timing, haptics::SculptSummary{}};
 }

@@ -15,9 +15,12 @@
 #include <optional>
 #include <thread>
 
+#include <tbb/task_arena.h>
+
 #include "engine/errors.h"
 #include "render/gl.h"
 #include "render/pick.h"
+#include "render/proxy_resample.h"
 #include "render/transfer_function.h"
 
 namespace hapvox::cli {
@@ -48,7 +51,7 @@ struct Input {
   double orbit_deg[2] = {0.0, 0.0};     // azimuth, elevation still to apply
   bool press_pending = false;           // a press to pick at the next frame
   bool end_requested = false;
-  std::optional<SegmentEnd> segment_key;  // [ ] p z: what the next segment changes
+  std::optional<SegmentEnd> segment_key;  // [ ] p z m: what the next segment changes
   // A scripted move under way: from (x0, y0) at t0 to (x1, y1) at t1 (seconds).
   bool gliding = false;
   double glide[6] = {0, 0, 0, 0, 0, 0};
@@ -86,6 +89,7 @@ struct Input {
     if (name == "]") segment_key = SegmentEnd::kLargerTool;
     if (name == "p") segment_key = SegmentEnd::kTogglePlastic;
     if (name == "z") segment_key = SegmentEnd::kUndo;
+    if (name == "m") segment_key = SegmentEnd::kSwitchModel;
   }
 };
 
@@ -111,6 +115,8 @@ const char* key_name(int key) {
       return "p";
     case GLFW_KEY_Z:
       return "z";
+    case GLFW_KEY_M:
+      return "m";
     default:
       return nullptr;
   }
@@ -232,6 +238,8 @@ struct SculptWindow::Session {
   Input input;
   Callbacks callbacks{&input, 0.5};
   std::unique_ptr<render::VolumeRenderer> renderer;  // this segment's volume
+  // The FEM model's segments: the volume resampled from the proxy mesh's displacements.
+  std::unique_ptr<render::ProxyResampler> resampler;
   render::OrbitCamera camera;
   Vector3d target = Vector3d::Zero();      // the tool's target, the renderer's frame
   Vector3d drag_point = Vector3d::Zero();  // a stroke's drag plane passes through it
@@ -400,6 +408,13 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
   } let_go;
   s.renderer = std::make_unique<render::VolumeRenderer>(
       *field_copy_, render::TransferFunction::from_spec(setup_.transfer_spec));
+  s.resampler.reset();
+  if (segment_setup_.proxy_mesh) {
+    s.resampler =
+        std::make_unique<render::ProxyResampler>(render::dense_copy(*field_copy_), setup_.resample);
+  }
+  int mesh_index = -1;              // the mesh s.resampler deforms with
+  std::int64_t deformed_tick = -1;  // the FEM step the texture shows
   Input& input = s.input;
   input.press_pending = false;
   input.segment_key.reset();
@@ -440,8 +455,12 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
     // A key that changes the tool or the clay ends the segment, between strokes only.
     if (input.segment_key) {
       // A device program moving the tool (--device) holds the session: no segments.
-      const bool allowed = mouse_ != nullptr && !dragging && !input.left_down &&
-                           (*input.segment_key != SegmentEnd::kUndo || can_undo());
+      const SegmentEnd key = *input.segment_key;
+      const bool allowed =
+          mouse_ != nullptr && !dragging && !input.left_down &&
+          (key != SegmentEnd::kUndo || can_undo()) &&
+          (key != SegmentEnd::kTogglePlastic || segment_setup_.can_toggle_plastic) &&
+          (key != SegmentEnd::kSwitchModel || segment_setup_.can_switch_model);
       if (allowed && !input.end_requested && segment_.end == SegmentEnd::kQuit) {
         segment_.end = *input.segment_key;
         device.request_end();
@@ -451,6 +470,25 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
     while (feed.voxels.pop(patch)) {
       s.renderer->set_voxel(patch.ijk, patch.density);
       ++timing.voxels_applied;
+    }
+    if (s.resampler) {  // the FEM's latest step, resampled into the texture
+      const haptics::MeshDisplacement& latest = feed.mesh.read();
+      if (latest.tick >= 0 && latest.tick != deformed_tick) {
+        if (latest.mesh_index != mesh_index) {
+          s.resampler->set_mesh(*latest.mesh);
+          mesh_index = latest.mesh_index;
+        }
+        // On this thread only: TBB's workers would compete with the force and FEM threads.
+        tbb::task_arena one_thread(1);
+        one_thread.execute([&] {
+          s.resampler->update(Eigen::Map<const Eigen::VectorXd>(
+              latest.displacement_mm.data(),
+              static_cast<Eigen::Index>(latest.displacement_mm.size())));
+        });
+        s.renderer->replace_texels(s.resampler->texels(), s.resampler->changed_bricks());
+        deformed_tick = latest.tick;
+        ++report_.fem_steps_drawn;
+      }
     }
     s.camera.azimuth_deg += input.orbit_deg[0];
     s.camera.elevation_deg = std::clamp(s.camera.elevation_deg + input.orbit_deg[1], -85.0, 85.0);
@@ -475,8 +513,10 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
     if (tool.tick >= 0) {
       pose.center_mm = frame_.world_to_grid(tool.center_mm);
       pose.radius_mm = radius;
-      pose.displacement_mm = to_grid * tool.displacement_mm;
-      pose.in_contact = tool.in_contact;
+      if (!s.resampler) {  // the FFD's press; the proxy mesh's deformation is in the texture
+        pose.displacement_mm = to_grid * tool.displacement_mm;
+        pose.in_contact = tool.in_contact;
+      }
     }
     render::RenderSettings settings = setup_.settings;
     settings.width = frame_w;
@@ -531,13 +571,21 @@ void SculptWindow::run(haptics::RenderFeed& feed, haptics::RenderTiming& timing)
                 feed.loop.rate_hz.load(), feed.loop.p99_lateness_us.load(),
                 static_cast<unsigned long long>(feed.loop.missed.load()),
                 static_cast<unsigned long long>(feed.loop.watchdog_trips.load()));
-    ImGui::Text("model  %s  tool %.1f mm  mass %lld units  %s", segment_setup_.model_label.c_str(),
-                2.0 * radius, static_cast<long long>(feed.loop.total_mass_units.load()),
-                felt.contact ? "contact" : "free");
+    if (segment_setup_.plastic) {
+      ImGui::Text("model  %s  tool %.1f mm  mass %lld units  %s",
+                  segment_setup_.model_label.c_str(), 2.0 * radius,
+                  static_cast<long long>(feed.loop.total_mass_units.load()),
+                  felt.contact ? "contact" : "free");
+    } else {
+      ImGui::Text("model  %s  tool %.1f mm  %s", segment_setup_.model_label.c_str(), 2.0 * radius,
+                  felt.contact ? "contact" : "free");
+    }
     if (mouse_ != nullptr) {
       ImGui::Text("tool   %s  push %+.1f mm  tick %lld", dragging ? "dragging" : "hovering",
                   input.push_mm, static_cast<long long>(felt.tick));
-      ImGui::Text("keys   [ ] tool size  p plastic  %s  space dead-man  esc end",
+      ImGui::Text("keys   [ ] tool size  %s%s  %s  space dead-man  esc end",
+                  segment_setup_.can_toggle_plastic ? "p plastic  " : "",
+                  segment_setup_.can_switch_model ? "m voxel/FEM" : "(m: --materials)",
                   can_undo() ? "z undo" : "(nothing to undo)");
     } else {
       ImGui::Text("tool   moved by %s  tick %lld", segment_setup_.device_label.c_str(),

@@ -19,8 +19,12 @@
 //   [ / ]           a smaller / larger tool        } each ends the session's segment (the
 //   p               plastic on or off              } force loop stops, the force at zero)
 //   z               undo the last plastic stroke   } and tools/cmd_sculpt.cc starts the next;
-//                                                    ignored during a stroke
+//   m               the voxel or the FEM model     } ignored during a stroke
 //   escape, close   end the session
+//
+// With the FEM model (Nakao's proxy mesh) the window draws the volume as the mesh deforms
+// it: each FEM step's node displacements resample the volume's texture (as `replay --model
+// fem --render-dir` frames do), on this thread.
 //
 // The window lives across segments: each segment's loop takes the OpenGL context on its
 // render thread and lets it go at the end; close() (or the destructor) closes it.
@@ -56,10 +60,13 @@ struct SculptSegmentSetup {
   bool plastic = true;                 // the segment sculpts: its strokes can be undone
   bool can_undo = false;               // an earlier segment's plastic stroke is there to undo
   std::string device_label = "mouse";  // without a mouse: what moves the tool (the overlay)
+  bool proxy_mesh = false;             // the FEM model: draw the feed's mesh displacements
+  bool can_toggle_plastic = true;      // p is taken (the voxel model)
+  bool can_switch_model = false;       // m is taken (a materials file makes the FEM model)
 };
 
 /// Why the window ended a segment (tools/cmd_sculpt.cc starts the next one, or stops).
-enum class SegmentEnd { kQuit, kSmallerTool, kLargerTool, kTogglePlastic, kUndo };
+enum class SegmentEnd { kQuit, kSmallerTool, kLargerTool, kTogglePlastic, kUndo, kSwitchModel };
 
 /// What one segment's window did.
 struct SculptSegmentReport {
@@ -77,6 +84,7 @@ struct SculptWindowReport {
   std::vector<std::string> screenshots;  // written, in order
   int presses = 0;                       // strokes begun (left button down)
   int picks_missed = 0;                  // presses whose ray saw no surface
+  int fem_steps_drawn = 0;               // FEM steps the volume was resampled for
 };
 
 class SculptWindow {

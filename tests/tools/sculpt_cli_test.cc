@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -201,6 +203,98 @@ TEST(SculptCli, KeysSplitTheSessionIntoSegmentsThatEachReplayAndUndoRestoresTheC
   EXPECT_LT(column_sum(dir + "/undo.h5", "/relax/deleted_voxels"), 0.5 * second_stroke);
 }
 
+TEST(SculptCli, TheFemModelPressesInTheWindowAndMSwitchesToTheVoxelModel) {
+  // A clay block filling its box (the FEM presses the proxy mesh's outer faces), its bottom
+  // quarter fixed: a press with the FEM model, m, then a stroke with the voxel model.
+  const std::string dir = scratch_dir();
+  const std::string volume = "block:dims=48,fill=1";
+  const std::string materials = testing::source_path("data/clay_block.toml");
+  std::ofstream(dir + "/fem.script") << "0.5 move 400 300\n"
+                                        "0.9 screenshot "
+                                     << dir
+                                     << "/before.png\n"
+                                        "1.0 press\n"
+                                        "1.2 wheel 6\n"
+                                        "2.4 screenshot "
+                                     << dir
+                                     << "/pressed.png\n"
+                                        "2.5 release\n"
+                                        "2.5 move 700 560 0.3\n"
+                                        "3.2 key m down\n"
+                                        "3.25 key m up\n"
+                                        "4.0 move 400 300\n"
+                                        "4.3 press\n"
+                                        "4.5 move 450 320 0.8\n"
+                                        "5.5 release\n"
+                                        "5.5 move 700 560 0.3\n"
+                                        "6.2 quit\n";
+  const testing::CommandResult sculpt = run_hapvox_env(
+      kXvfb, "sculpt " + volume + " --model fem --materials " + materials + " --script " + dir +
+                 "/fem.script -o " + dir + "/s.h5 -q --no-mlock");
+  ASSERT_EQ(sculpt.exit_code, 0) << sculpt.err << sculpt.out;
+  EXPECT_NE(sculpt.out.find("segments         2,"), std::string::npos) << sculpt.out;
+  EXPECT_NE(sculpt.out.find(dir + "/s.h5: tool 8.0 mm, FEM (proxy mesh), ended by m (the voxel "
+                                  "or FEM model)"),
+            std::string::npos)
+      << sculpt.out;
+  EXPECT_NE(sculpt.out.find(dir + "/s-2.h5: tool 8.0 mm, plastic, ended by the end of the session"),
+            std::string::npos)
+      << sculpt.out;
+  EXPECT_NE(sculpt.out.find("hapvox replay " + dir + "/s.csv --volume " + volume +
+                            " --model fem --no-tool-refine --tool-diameter-mm 8"),
+            std::string::npos)
+      << sculpt.out;
+  // The window drew the FEM's steps: the volume resampled from the mesh's displacements (at
+  // its frame rate: 3 to 4 a second with llvmpipe on two cores).
+  const std::string drawn = "FEM steps drawn";
+  const std::size_t at = sculpt.out.find(drawn);
+  ASSERT_NE(at, std::string::npos) << sculpt.out;
+  EXPECT_GE(std::stoll(sculpt.out.substr(sculpt.out.rfind(',', at) + 1)), 1) << sculpt.out;
+
+  // Segment 1: the FEM, paced in lockstep, pressed the block in.
+  const haptics::SessionInfo fem = haptics::read_session_info(dir + "/s.h5");
+  EXPECT_TRUE(fem.complete);
+  EXPECT_EQ(attribute(fem, "model"), "fem");
+  EXPECT_EQ(attribute(fem, "fem_schedule"), "lockstep, paced by the clock");
+  EXPECT_EQ(attribute(fem, "fem_tool_refine"), "0");
+  EXPECT_GT(column_sum(dir + "/s.h5", "/contact"), 200.0);
+  double deepest_mm = 0.0;
+  for (const double u : haptics::read_session_column(dir + "/s.h5", "/fem/displacement_mm")) {
+    deepest_mm = std::max(deepest_mm, std::abs(u));
+  }
+  EXPECT_GT(deepest_mm, 0.2);
+  // Its trace replays it in lockstep: every tick's pose and contact, every FEM step's
+  // displacements, the forces wherever the same ramp was sent.
+  const testing::CommandResult again =
+      run_hapvox("replay " + dir + "/s.csv --volume " + volume + " --model fem --materials " +
+                 materials + " --no-tool-refine --tool-diameter-mm 8 -q -o " + dir + "/again.h5");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  testing::expect_same_columns(dir + "/s.h5", dir + "/again.h5",
+                               {"/tool_position_mm", "/contact", "/displacement_mm",
+                                "/fem/displacement_mm", "/fem/step_tick"});
+  EXPECT_GE(testing::expect_same_forces_at_same_ramp(dir + "/s.h5", dir + "/again.h5"), 200u);
+  // The press shows: the block's top edge, far from the tool (at about (390, 305)), moved
+  // with the mesh (8.3 here); the front face's fixed bottom quarter and the far corner of the
+  // window did not.
+  const render::Image before = render::read_png(dir + "/before.png");
+  const render::Image pressed = render::read_png(dir + "/pressed.png");
+  ASSERT_EQ(pressed.width, 800);
+  EXPECT_GT(render::mean_abs_difference(before, pressed, 160, 160, 300, 200), 2.0);
+  EXPECT_LT(render::mean_abs_difference(before, pressed, 200, 420, 300, 470), 0.5);
+  EXPECT_LT(render::mean_abs_difference(before, pressed, 0, 560, 80, 600), 0.5);
+
+  // Segment 2: the voxel model (its materials by tissue from the same file) sculpted, and
+  // replays so too.
+  const haptics::SessionInfo voxel = haptics::read_session_info(dir + "/s-2.h5");
+  EXPECT_EQ(attribute(voxel, "plastic"), "1");
+  EXPECT_GT(std::stoll(attribute(voxel, "summary_plastic_events")), 10);
+  const testing::CommandResult again2 =
+      run_hapvox("replay " + dir + "/s-2.csv --volume " + volume + " --materials " + materials +
+                 " --plastic --tool-diameter-mm 8 -q -o " + dir + "/again2.h5");
+  ASSERT_EQ(again2.exit_code, 0) << again2.err;
+  expect_same_ticks(dir + "/s-2.h5", dir + "/again2.h5");
+}
+
 TEST(SculptCli, ADeviceProgramMovesTheToolInTheWindowThroughTheBridge) {
   // sculpt --device: the bundled clay stroke played through the bridge by device-sim, the
   // window drawing what it sculpts; the session's trace replays it in lockstep.
@@ -273,9 +367,13 @@ TEST(SculptCli, BadInputIsOneLineAndMakesNoFile) {
                    "screenshot, quit)");
   expect_error(kXvfb, " --screenshot " + dir + "/shot.jpg", "--screenshot: must name a .png file");
   expect_error(kXvfb, " --elastic --plastic", "--elastic: cannot go with --plastic");
-  expect_error(kXvfb, " --model fem",
-               "--model: sculpt runs the voxel model (the proxy mesh is refined along a trace, "
-               "which a live session does not have ahead)");
+  expect_error(kXvfb, " --model fem", "--materials: --model fem needs one");
+  expect_error(kXvfb, " --model clay", "--model: unknown model 'clay' (voxel or fem)");
+  expect_error(
+      kXvfb,
+      " --model fem --interaction grab --materials " + testing::source_path("data/clay_block.toml"),
+      "--interaction: sculpt presses with the FEM model (a grab holds what lies within "
+      "reach of a trace's first position, which a live session has not)");
 }
 
 }  // namespace
