@@ -390,7 +390,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   const std::size_t progress_every =
       ticks == Device::kUnbounded ? 1000 : std::max<std::size_t>(1, ticks / 100);
   std::size_t next_progress = progress_every;
-  auto drain = [&] {
+  auto drain = [&](bool loop_running) {
     RingSlot slot;
     while (rows->pop(slot)) {
       const TickRecord& row = slot.row;
@@ -409,7 +409,10 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
       const auto now = Clock::now();
       const double span_s = std::chrono::duration<double>(now - stats_time).count();
       LoopStats& loop = feed->loop;
-      if (span_s > 0.0) {
+      // The rate over the last ~100 ms while the loop runs; the drain after it ended (a span
+      // the loop ran only part of, often none) keeps the last, as the window's last frame
+      // shows it.
+      if (span_s > 0.0 && loop_running) {
         loop.rate_hz.store(static_cast<double>(written - stats_written) / span_s,
                            std::memory_order_relaxed);
       }
@@ -429,10 +432,10 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   };
   while (!force_done.load(std::memory_order_acquire)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    drain();
+    drain(!force_done.load(std::memory_order_acquire));
   }
   force_thread.join();
-  drain();
+  drain(false);
   if (background_thread.joinable()) background_thread.join();
   const auto wall_end = Clock::now();
   release_process(scheduler);

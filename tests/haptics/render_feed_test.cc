@@ -149,14 +149,43 @@ TEST(RenderFeed, RealtimeSculptingWithARenderThreadKeepsTheRenderersCopyExact) {
 namespace hapvox::haptics {
 namespace {
 
-TEST(RenderFeed, AFailingRenderLoopIsReportedAfterTheRealtimeRunNotACrash) {
-  const engine::DensityField field = engine::generate_volume("block:dims=32");
-  const engine::ToolForceModel model(field, engine::ToolForceOptions{});
+// A 3 mm downward press above block:dims=32, at `speed_mm_s`.
+TraceDevice press_into_block(double speed_mm_s) {
   TraceMakeOptions make;
   make.shape = TraceShape::kPress;
   make.start_mm = Vec3d(16, 16, 22);
   make.travel_mm = 3.0;
-  TraceDevice device(resample(make_trace(make), ResampleOptions{}), DeviceTransform{});
+  make.speed_mm_s = speed_mm_s;
+  return TraceDevice(resample(make_trace(make), ResampleOptions{}), DeviceTransform{});
+}
+
+// The overlay's loop line at the end of a run: the rate the loop ran at, not that of the
+// last drain's span after it ended (which read 0.0 Hz in the window's last frame).
+TEST(RenderFeed, TheLoopStatsAtTheEndShowTheRateTheLoopRanAt) {
+  const engine::DensityField field = engine::generate_volume("block:dims=32");
+  const engine::ToolForceModel model(field, engine::ToolForceOptions{});
+  TraceDevice device = press_into_block(3.0);  // a second of ticks: several ~100 ms spans
+  double end_rate_hz = -1.0;
+  std::uint64_t end_ticks = 0;
+  RealtimeOptions realtime;
+  realtime.scheduler.lock_memory = false;
+  realtime.render_loop = [&](RenderFeed& feed, RenderTiming&) {
+    while (!feed.done.load(std::memory_order_acquire)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    end_rate_hz = feed.loop.rate_hz.load();
+    end_ticks = feed.loop.ticks.load();
+  };
+  replay_realtime(model, device, DeviceLimits{}, nullptr, {}, nullptr, nullptr, nullptr, realtime);
+  EXPECT_EQ(end_ticks, device.tick_count());
+  // A 1 kHz loop, measured over ~100 ms spans: far from zero however loaded the machine.
+  EXPECT_GT(end_rate_hz, 100.0);
+}
+
+TEST(RenderFeed, AFailingRenderLoopIsReportedAfterTheRealtimeRunNotACrash) {
+  const engine::DensityField field = engine::generate_volume("block:dims=32");
+  const engine::ToolForceModel model(field, engine::ToolForceOptions{});
+  TraceDevice device = press_into_block(10.0);
   RealtimeOptions realtime;
   realtime.render_loop = [](RenderFeed&, RenderTiming&) {
     throw InputError("frames/frame_0000.png", "cannot be written");
