@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <iterator>
 #include <thread>
 
 #include "engine/check.h"
@@ -309,14 +310,39 @@ void FemBackgroundStage::fem_step(const Vec3d& device_mm, const Vec3d& tick_prox
   next.fem_step = ++steps_;
   current_ = next;
   handoff_.snapshots.publish();
-  frames_.push_back(
-      FemFrame{tick, std::vector<double>(displacement_mm_.data(), displacement_mm_.data() + dofs),
-               static_cast<int>(remeshes_.size())});
+  keep_step(FemFrame{tick,
+                     std::vector<double>(displacement_mm_.data(), displacement_mm_.data() + dofs),
+                     static_cast<int>(remeshes_.size()), steps_ - 1});
+}
+
+void FemBackgroundStage::keep_step(FemFrame step) {
+  auto bytes = [](const FemFrame& frame) { return frame.displacement_mm.size() * sizeof(double); };
+  // The last step made is kept as the latest (the renderer's and the session's end), and
+  // stays once a later one comes only if it is one of the kept.
+  if (!frames_.empty() && frames_.back().step % kept_every_ != 0) {
+    kept_bytes_ -= bytes(frames_.back());
+    frames_.pop_back();
+  }
+  kept_bytes_ += bytes(step);
+  frames_.push_back(std::move(step));
+  const double budget_bytes = model_->options().kept_steps_mb * 1e6;
+  while (static_cast<double>(kept_bytes_) > budget_bytes && frames_.size() > 2) {
+    kept_every_ *= 2;
+    const auto last = std::prev(frames_.end());
+    const auto end = std::remove_if(frames_.begin(), last, [&](const FemFrame& frame) {
+      return frame.step % kept_every_ != 0;
+    });
+    frames_.erase(end, last);
+    kept_bytes_ = 0;
+    for (const FemFrame& frame : frames_) kept_bytes_ += bytes(frame);
+  }
 }
 
 void FemBackgroundStage::begin() {
   displacement_mm_ = Eigen::VectorXd::Zero(3 * model_->mesh().vertex_count());
   frames_.clear();
+  kept_every_ = 1;
+  kept_bytes_ = 0;
   steps_ = 0;
   current_ = ContactSnapshot{};
   fem_step(initial_device_mm_, initial_device_mm_, 0);
@@ -439,6 +465,7 @@ void FemBackgroundStage::write_session(SessionWriter& session, double t0_s, doub
     session.write_array("timing/fem_remesh_build_s", build_s, {build_s.size()}, "s");
   }
   session.set_attribute("fem_steps", static_cast<std::int64_t>(steps_));
+  session.set_attribute("fem_steps_kept_every", static_cast<std::int64_t>(kept_every_));
   session.set_attribute("fem_remeshes", static_cast<std::int64_t>(remeshes_.size()));
   session.set_attribute("fem_label_changes_not_taken",
                         static_cast<std::int64_t>(label_changes_not_taken()));

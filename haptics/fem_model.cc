@@ -34,6 +34,9 @@ void validate(const FemOptions& o) {
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
   const std::string source = "fem options";
   if (!positive(o.tool_radius_mm)) throw InputError(source, "the tool radius must be > 0 mm");
+  if (!positive(o.kept_steps_mb)) {
+    throw InputError(source, "the FEM steps' memory budget must be > 0 MB");
+  }
   if (!positive(o.coupling_n_per_mm)) {
     throw InputError(source, "the coupling stiffness must be > 0 N/mm");
   }

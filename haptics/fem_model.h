@@ -63,6 +63,11 @@ struct FemOptions {
   std::size_t fem_every_ticks = 10;
   /// Realtime: the FEM thread's rate.
   double fem_rate_hz = 100.0;
+  /// What the FEM steps' displacements kept for the session may take (MB): beyond it every
+  /// other kept step is let go and from then on only every 2nd (4th, ...) step kept, so a
+  /// session of any length keeps them in bounded memory, spread over the whole run
+  /// (FemBackgroundStage::frames()).
+  double kept_steps_mb = 256.0;
   /// Co-rotational mode.
   engine::fem::CorotationalOptions corotational;
 };
@@ -142,6 +147,7 @@ struct FemFrame {
   std::int64_t tick = 0;                // the force tick whose device position it solved for
   std::vector<double> displacement_mm;  // 3 per vertex of its mesh, x fastest
   int mesh = 0;                         // 0: the run's first mesh; k: the k-th remesh's
+  std::uint64_t step = 0;               // the FEM step it is (0: begin()'s)
 };
 
 /// The proxy-FEM model's background stage: the FEM.
@@ -166,8 +172,12 @@ class FemBackgroundStage final : public BackgroundStage {
   SculptSummary finish(const LockstepRender* render, RenderFeed* feed,
                        const std::atomic<bool>* render_finished) override;
 
-  /// The displacement of every FEM step, in order (the first: begin()'s).
+  /// The displacements of the FEM steps kept, in order: every step while they fit in
+  /// FemOptions::kept_steps_mb, then every kept_every()-th (begin()'s, step 0, always), and
+  /// always the last step made.
   const std::vector<FemFrame>& frames() const { return frames_; }
+  /// 1, or the power of two the steps kept were thinned to.
+  std::uint64_t kept_every() const { return kept_every_; }
   /// The current displacement (mm, 3 per vertex).
   const Eigen::VectorXd& displacement_mm() const { return displacement_mm_; }
   /// The vertices a grab captured (empty for a press).
@@ -202,6 +212,9 @@ class FemBackgroundStage final : public BackgroundStage {
   // One FEM step for the device at `device_mm` whose tick left the proxy at `proxy_mm`
   // (the press normals' centre), the step's frame recorded for `tick`.
   void fem_step(const Vec3d& device_mm, const Vec3d& proxy_mm, std::int64_t tick);
+  // Appends `step` to frames_ (the last one stays only if kept), thinning them to every
+  // other kept step while they are over the budget.
+  void keep_step(FemFrame step);
   // The contact forces (N, all DOFs) the snapshot gives at `device_mm` (normals from
   // `proxy_hint_mm`), and the proxy.
   Eigen::VectorXd contact_loads(const ContactSnapshot& snapshot, const Vec3d& device_mm,
@@ -235,6 +248,8 @@ class FemBackgroundStage final : public BackgroundStage {
   Eigen::MatrixXd grab_w_inverse_;
   Eigen::VectorXd grab_vertex_forces_n_;
   std::vector<FemFrame> frames_;
+  std::uint64_t kept_every_ = 1;
+  std::size_t kept_bytes_ = 0;  // the displacements in frames_
   std::uint64_t steps_ = 0;
   std::exception_ptr failure_;  // realtime: what stopped the FEM thread's steps
 };

@@ -353,9 +353,10 @@ void add_replay_flags(CLI::App* cmd, ReplayFlags* flags, bool with_inputs) {
                   "fem: do not refine the proxy mesh where the trace's tool goes (a sculpt "
                   "session's FEM segments are meshed so: replay their traces with it)");
   }
-  for (const char* name : {"--spacing-mm", "--boundary-levels", "--interaction", "--fem-solver",
-                           "--coupling-n-per-mm", "--candidate-margin-mm", "--fem-every-ticks",
-                           "--fem-rate-hz", "--relabel", "--no-tool-refine"}) {
+  for (const char* name :
+       {"--spacing-mm", "--boundary-levels", "--interaction", "--fem-solver", "--coupling-n-per-mm",
+        "--candidate-margin-mm", "--fem-every-ticks", "--fem-rate-hz", "--fem-steps-kept-mb",
+        "--relabel", "--no-tool-refine"}) {
     if (const CLI::Option* option = cmd->get_option_no_throw(name)) {
       flags->fem_only_options.push_back(option);
     }

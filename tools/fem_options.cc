@@ -34,6 +34,10 @@ void FemRunFlags::add_to(CLI::App& app, bool realtime) {
     app.add_option("--fem-rate-hz", options.fem_rate_hz, "fem, realtime: the FEM thread's rate")
         ->capture_default_str();
   }
+  app.add_option("--fem-steps-kept-mb", options.kept_steps_mb,
+                 "fem: memory for the FEM steps' displacements kept for the session; beyond it "
+                 "only every 2nd (4th, ...) step is kept, over the whole run")
+      ->capture_default_str();
   app.add_option("--incision", incision,
                  "fem: an incision file (TOML: width_mm, polyline_mm + sweep_mm or triangles_mm, "
                  "at_s; docs/formats.md): the proxy mesh is cut and held open by the width");
@@ -82,6 +86,7 @@ haptics::FemOptions FemRunFlags::resolve(double tool_diameter_mm) const {
     throw InputError("--candidate-margin-mm", "must be zero or positive");
   }
   if (o.fem_every_ticks == 0) throw InputError("--fem-every-ticks", "must be at least 1");
+  if (!positive(o.kept_steps_mb)) throw InputError("--fem-steps-kept-mb", "must be positive");
   if (!(o.fem_rate_hz >= 1.0 && o.fem_rate_hz <= 1000.0)) {
     throw InputError("--fem-rate-hz", "must lie in [1, 1000]");
   }

@@ -26,14 +26,16 @@ std::uint64_t malformed_total(const haptics::BridgeCounters& c) {
 
 }  // namespace
 
+Eigen::Vector3d above_volume_mm(const engine::DensityField& field, double tool_radius_mm) {
+  const Eigen::Vector3d lo = field.world_min_mm(), hi = field.world_max_mm();
+  return {0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z() + tool_radius_mm + 2.0};
+}
+
 void check_bridge_flags(const ReplayFlags& f) {
   if (!f.trace_path.empty()) {
     throw InputError("--device", "takes the place of a trace file: give one or the other");
   }
   if (!f.realtime) throw InputError("--device", "needs --realtime (a live device has no lockstep)");
-  if (f.model != "voxel") {
-    throw InputError("--device", "needs --model voxel (the proxy mesh is refined along a trace)");
-  }
   if (f.transform.fit) {
     throw InputError("--fit", "needs a trace file (a live device's path is not known ahead)");
   }

@@ -114,6 +114,10 @@ haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const hapti
                                             const haptics::FemBackgroundStage& fem,
                                             std::size_t every_ticks);
 
+/// Where a live session's tool starts: above the middle of the volume's top, its sphere
+/// (of `tool_radius_mm`) 2 mm clear of it (world mm).
+Eigen::Vector3d above_volume_mm(const engine::DensityField& field, double tool_radius_mm);
+
 /// --device's flags (tools/replay_bridge.cc); InputError naming the flag.
 void check_bridge_flags(const ReplayFlags& f);
 /// The bridge device listening on --device; Ctrl-C and SIGTERM end its session cleanly.

@@ -56,8 +56,10 @@ haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const hapti
 }
 
 ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_line) {
-  // sculpt's window (or its bridge) moves the tool: no trace, the FEM paced in lockstep.
-  const bool live = f.front_end != nullptr;
+  // A live device moves the tool: sculpt's window (the FEM paced in lockstep with the force
+  // loop), or the bridge (--device; the FEM on its own thread); no trace.
+  const bool windowed = f.front_end != nullptr;
+  const bool live = windowed || !f.device.empty();
   // Check everything the user gave before reading big files or creating output.
   if (f.plastic)
     throw InputError("--plastic", "needs --model voxel (the FEM model does not sculpt)");
@@ -75,13 +77,13 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   if (live) {
     if (options.interaction == haptics::FemInteraction::kGrab) {
       throw InputError("--interaction",
-                       "sculpt presses with the FEM model (a grab holds what lies within "
-                       "reach of a trace's first position, which a live session has not)");
+                       "a live session presses with the FEM model (a grab holds what lies "
+                       "within reach of a trace's first position, which a live session has not)");
     }
     if (!relabels.empty())
       throw InputError("--relabel", "needs a trace (its times are trace times)");
     if (incision && incision->at_s) {
-      throw InputError(incision->source, "at_s needs a trace: sculpt cuts from the start");
+      throw InputError(incision->source, "at_s needs a trace: a live session cuts from the start");
     }
   }
   const haptics::TraceColumns columns = f.trace.columns();
@@ -105,11 +107,15 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   std::optional<haptics::Trace> trace;
   if (!live) trace = haptics::read_trace(f.trace_path, columns);
   const engine::DensityField field = engine::load_volume(f.volume, mapping);
-  // The device: a replayed trace, or the window's (sculpt).
+  // The device: a replayed trace, the window's (sculpt), or the bridge (bound here, before
+  // any file is made: a port in use is one line).
   std::unique_ptr<haptics::TraceDevice> traced;
   std::unique_ptr<haptics::Device> fronted;
-  if (live) {
+  std::unique_ptr<haptics::BridgeDevice> bridge;
+  if (windowed) {
     fronted = f.front_end->make_device(field, options.tool_radius_mm);
+  } else if (live) {
+    bridge = make_bridge_device(f, f.transform.resolve_fixed());
   } else {
     haptics::ResampleOptions resample_options;
     resample_options.rate_hz = f.trace.rate_hz;
@@ -118,7 +124,13 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                                                     f.transform.resolve(*trace, field));
     if (traced->tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
   }
-  haptics::Device& device = live ? *fronted : static_cast<haptics::Device&>(*traced);
+  haptics::Device& device = fronted  ? *fronted
+                            : bridge ? static_cast<haptics::Device&>(*bridge)
+                                     : *traced;
+  // The bridge's counts go in the session: ours, or the one behind sculpt's window.
+  const haptics::BridgeDevice* bridged = bridge     ? bridge.get()
+                                         : windowed ? f.front_end->bridge
+                                                    : nullptr;
   // A tick's time: the trace's, or (live) ticks from zero at the loop's rate.
   auto time_s = [&](std::int64_t tick) {
     return traced ? traced->time_s(static_cast<std::size_t>(tick))
@@ -140,8 +152,12 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   // The stages (haptics/fem_model.h); the loops see only their seams.
   auto handoff = std::make_unique<haptics::FemHandoff>();
   haptics::FemForceStage force(model, *handoff);
+  // The first snapshot is made where the tool starts: the trace's first position, or (live)
+  // the window's start, or above the volume for a device yet to be heard from.
   haptics::FemBackgroundStage fem(model, *handoff,
-                                  traced ? traced->tool_position_mm(0) : f.front_end->start_mm);
+                                  traced     ? traced->tool_position_mm(0)
+                                  : windowed ? f.front_end->start_mm
+                                             : above_volume_mm(field, options.tool_radius_mm));
   fem.set_label_changes(std::move(changes));
   // Frames show the volume as the proxy mesh deforms it; a grab's capture sphere is not drawn
   // (it would hide what it holds), a press's tool is.
@@ -151,12 +167,12 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   if (recorder) recorder->use_proxy_mesh();
   // The window, before the session file (a machine without a display fails before any output).
   haptics::RenderLoop window_loop;
-  if (live) window_loop = f.front_end->make_render_loop(field, device, options.tool_radius_mm);
+  if (windowed) window_loop = f.front_end->make_render_loop(field, device, options.tool_radius_mm);
 
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device,
                        traced ? &traced->trace() : nullptr);
-  session.set_attribute("fem_schedule", std::string(live         ? "lockstep, paced by the clock"
+  session.set_attribute("fem_schedule", std::string(windowed     ? "lockstep, paced by the clock"
                                                     : f.realtime ? "own thread"
                                                                  : "lockstep"));
   session.set_attribute("fem_tool_refine", std::int64_t{tool_region ? 1 : 0});
@@ -175,10 +191,10 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
         realtime.render_loop = recorder->realtime_loop(f.render_fps);
         realtime.scheduler.lock_future_memory = false;  // Mesa maps memory on its threads
       }
-      if (live) {
+      if (live) realtime.stop = stop_request();
+      if (windowed) {
         // Paced in lockstep (a FEM step after every fem_every_ticks-th tick, before the
         // next): the session's trace replays it bit for bit.
-        realtime.stop = stop_request();
         realtime.background_in_lockstep = true;
         realtime.render_loop = window_loop;
         realtime.scheduler.lock_future_memory = false;
@@ -193,16 +209,14 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
     }
     force.write_attributes(session);
     write_summary_attributes(session, f, s, timing);
-    if (f.realtime && !live) {
+    if (f.realtime && !windowed) {
       session.write_array("timing/fem_step_ns", timing.relax_slice_ns, "ns");
       session.write_array("timing/fem_step_start_ns", timing.relax_slice_start_ns, "ns");
       session.set_attribute("summary_fem_step_p50_us", timing.relax_slice.p50_us);
       session.set_attribute("summary_fem_step_p99_us", timing.relax_slice.p99_us);
     }
     fem.write_session(session, time_s(0), device.rate_hz());
-    if (live && f.front_end->bridge != nullptr) {
-      write_bridge_attributes(session, *f.front_end->bridge);
-    }
+    if (bridged != nullptr) write_bridge_attributes(session, *bridged);
     if (recorder) write_render_attributes(session, f, *recorder, timing);
     haptics::write_proxy_mesh(session.file_handle(), model.proxy());
   } catch (...) {
@@ -227,9 +241,11 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                                   series);
   if (!f.trace_out.empty()) write_recorded_trace(f.output, f.trace_out);
 
-  std::printf("%s %s on %s (proxy FEM, %s %s) -> %s\n", live ? "sculpted with" : "replayed",
-              live ? f.front_end->name.c_str() : f.trace_path.c_str(), f.volume.c_str(),
-              haptics::fem_solver_name(options.solver),
+  std::printf("%s %s on %s (proxy FEM, %s %s) -> %s\n", windowed ? "sculpted with" : "replayed",
+              windowed ? f.front_end->name.c_str()
+              : live   ? f.device.c_str()
+                       : f.trace_path.c_str(),
+              f.volume.c_str(), haptics::fem_solver_name(options.solver),
               haptics::fem_interaction_name(options.interaction), f.output.c_str());
   print_run_report(f, s, timing, device,
                    "(contact solve on the FEM's snapshot, " +
@@ -241,11 +257,11 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   const std::string every = "every " + std::to_string(options.fem_every_ticks) + " ticks";
   std::printf("  fem              %llu steps (%s), %zu vertices grabbed\n",
               static_cast<unsigned long long>(fem.steps()),
-              live         ? (every + ", paced by the clock").c_str()
+              windowed     ? (every + ", paced by the clock").c_str()
               : f.realtime ? (std::to_string(options.fem_rate_hz) + " Hz thread").c_str()
                            : every.c_str(),
               fem.captured_vertices().size());
-  if (f.realtime && !live) print_stats_line("fem steps", timing.relax_slice);
+  if (f.realtime && !windowed) print_stats_line("fem steps", timing.relax_slice);
   for (const auto& remesh : fem.remeshes()) {
     const engine::fem::ConformingMeshReport& r = remesh->model->proxy().report;
     std::printf(
@@ -275,7 +291,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                 recorder->resample_ms_total() / std::max(1, recorder->resamples()),
                 render::gradient_transform_name(recorder->setup().resample.gradient));
   }
-  if (live && f.front_end->bridge != nullptr) print_bridge_lines(*f.front_end->bridge);
+  if (bridged != nullptr) print_bridge_lines(*bridged);
   print_run_footer(s);
   return ReplayResult{s, timing, haptics::SculptSummary{}};
 }

@@ -197,6 +197,42 @@ TEST(FemPress, TwoLockstepRunsAreBitIdentical) {
   EXPECT_EQ(a.frames.size(), 1 + 1500 / 10);
 }
 
+// A live session has no known length: past FemOptions::kept_steps_mb the steps kept for the
+// session are thinned to every 2nd, 4th, ... step over the whole run (and the last), each
+// exactly the step an unthinned run made; the forces do not change.
+TEST(FemPress, StepsOverTheirMemoryBudgetAreThinnedEvenlyAndKeepTheLast) {
+  const FemModel every_step(block(), options(FemInteraction::kPress, 10));
+  FemOptions budgeted = options(FemInteraction::kPress, 10);
+  budgeted.kept_steps_mb = 0.05;  // 50 kB: 8 of the block's 245-vertex steps (5880 bytes)
+  const FemModel thinned_model(block(), budgeted);
+  TraceDevice device = press_path();
+  const FemRun all = run_lockstep(every_step, device);
+  const FemRun thinned = run_lockstep(thinned_model, device);
+  ASSERT_EQ(all.frames.size(), 1 + 1500 / 10);
+  ASSERT_EQ(thinned.force_n, all.force_n);
+  ASSERT_GE(thinned.frames.size(), 3u);
+  const std::uint64_t every = thinned.frames[1].step;  // the thinning's stride
+  ASSERT_GT(every, 1u);
+  EXPECT_EQ(every & (every - 1), 0u) << every;  // a power of two
+  const std::uint64_t last_step = all.frames.back().step;
+  std::vector<std::uint64_t> expected;
+  for (std::uint64_t step = 0; step <= last_step; step += every) expected.push_back(step);
+  if (expected.back() != last_step) expected.push_back(last_step);
+  std::vector<std::uint64_t> kept;
+  for (const FemFrame& frame : thinned.frames) {
+    kept.push_back(frame.step);
+    const FemFrame& same = all.frames[frame.step];
+    ASSERT_EQ(same.step, frame.step);
+    ASSERT_EQ(same.tick, frame.tick);
+    ASSERT_EQ(same.displacement_mm, frame.displacement_mm) << frame.step;
+  }
+  EXPECT_EQ(kept, expected);
+  // Within the budget, and thinned no further than it needed: every (every / 2)-th would not fit.
+  const double frame_bytes = 8.0 * all.frames[0].displacement_mm.size();
+  EXPECT_LE(frame_bytes * static_cast<double>(thinned.frames.size()), 0.05e6);
+  EXPECT_GT(frame_bytes * static_cast<double>(last_step / (every / 2) + 2), 0.05e6);
+}
+
 TEST(FemOptionsCheck, BadOptionsAreInputErrors) {
   FemOptions o;
   o.tool_radius_mm = 0.0;

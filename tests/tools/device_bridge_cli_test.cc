@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -169,6 +170,61 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
   EXPECT_GE(testing::expect_same_forces_at_same_ramp(dir + "/live.h5", dir + "/again.h5"), 100u);
 }
 
+// replay --device --model fem: a device program presses Nakao's proxy mesh through the
+// bridge, the FEM on its own thread; it feels what a lockstep replay of the same press feels.
+TEST(DeviceBridgeCli, ADeviceProgramPressesTheProxyMeshThroughTheBridge) {
+  const std::string dir = scratch_dir();
+  // The block fills its box (the FEM presses the mesh's outer faces, the top at z = 47.5):
+  // the 8 mm tool from 1.5 mm clear to 2 mm in, held there.
+  ASSERT_EQ(run_hapvox("trace make press-release -o " + dir +
+                       "/press.csv --start-mm 24,24,53 --travel-mm 3.5 --hold-s 0.3")
+                .exit_code,
+            0);
+  const std::string fem = " --volume block:dims=48,fill=1 --model fem --materials " +
+                          testing::source_path("data/clay_block.toml") +
+                          " --no-tool-refine --tool-diameter-mm 8 -q";
+  ASSERT_EQ(
+      run_hapvox("replay " + dir + "/press.csv" + fem + " -o " + dir + "/direct.h5").exit_code, 0);
+  const std::uint16_t port = free_port();
+  const std::string device = "udp:127.0.0.1:" + std::to_string(port);
+  testing::CommandResult live;
+  std::thread hapvox([&] {
+    live = run_hapvox("replay --device " + device + fem + " --realtime --no-mlock -o " + dir +
+                      "/live.h5");
+  });
+  for (int i = 0; i < 1000 && !listening(port); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const testing::CommandResult sim = run_hapvox("device-sim " + dir + "/press.csv --to " + device);
+  hapvox.join();
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  ASSERT_EQ(live.exit_code, 0) << live.err;
+  EXPECT_NE(live.out.find("replayed " + device +
+                          " on block:dims=48,fill=1 (proxy FEM, linear "
+                          "press)"),
+            std::string::npos)
+      << live.out;
+  const haptics::SessionInfo info = haptics::read_session_info(dir + "/live.h5");
+  EXPECT_TRUE(info.complete);
+  std::map<std::string, std::string> attributes(info.attributes.begin(), info.attributes.end());
+  EXPECT_EQ(attributes["model"], "fem");
+  EXPECT_EQ(attributes["fem_schedule"], "own thread");
+  EXPECT_EQ(attributes["device"], device);
+  EXPECT_GT(std::stoll(attributes["fem_steps"]), 10);
+  EXPECT_GT(std::stoll(attributes["bridge_fresh"]), 500);
+  // The press pushes the tool back out (+z) and is felt about as the lockstep replay feels
+  // it (the FEM thread steps at its own times, so not bit for bit).
+  auto peak_up_n = [](const std::string& session) {
+    double peak = 0.0;
+    const std::vector<double> force = haptics::read_session_column(session, "/force_n");
+    for (std::size_t k = 0; k + 2 < force.size(); k += 3) peak = std::max(peak, force[k + 2]);
+    return peak;
+  };
+  const double direct_n = peak_up_n(dir + "/direct.h5");
+  ASSERT_GT(direct_n, 0.05);
+  EXPECT_NEAR(peak_up_n(dir + "/live.h5"), direct_n, 0.25 * direct_n);
+}
+
 TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
   const std::string dir = scratch_dir();
   ASSERT_EQ(run_hapvox("trace make press -o " + dir + "/t.csv").exit_code, 0);
@@ -187,7 +243,13 @@ TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
   expect_error("replay --device udp:127.0.0.1:47001 --realtime --fit" + volume + out,
                "--fit: needs a trace file (a live device's path is not known ahead)");
   expect_error("replay --device udp:127.0.0.1:47001 --realtime --model fem" + volume + out,
-               "--device: needs --model voxel (the proxy mesh is refined along a trace)");
+               "--materials: --model fem needs one");
+  expect_error(
+      "replay --device udp:127.0.0.1:47001 --realtime --model fem --interaction grab "
+      "--materials " +
+          testing::source_path("data/clay_block.toml") + volume + out,
+      "--interaction: a live session presses with the FEM model (a grab holds what lies "
+      "within reach of a trace's first position, which a live session has not)");
   expect_error("replay --realtime" + volume + out,
                "trace: a trace file is needed (or --device udp:HOST:PORT)");
   expect_error(
