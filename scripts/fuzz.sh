@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds every libFuzzer target (tests/CMakeLists.txt: volume headers and payloads, DICOM,
-# traces, materials and incision files, device bridge packets) with clang 14 under
+# traces, materials and incision files, device bridge packets, sweep manifests) with clang 14 under
 # ASan+UBSan, and runs each for a bounded time on a corpus seeded from real files: the bundled volumes, traces and TOML
 # files, pydicom's DICOM test files, mricron's NIfTI templates, and small files of every
 # volume format. A crash, a sanitizer report, an abort from a target's own checks (a read
@@ -16,7 +16,7 @@ bash "$root/scripts/setup.sh" clang-14 libclang-rt-14-dev
 
 build_dir="$root/build-fuzz"
 targets=(volume_fuzz dicom_fuzz trace_fuzz materials_fuzz incision_fuzz bridge_fuzz
-  pointer_script_fuzz)
+  pointer_script_fuzz sweep_manifest_fuzz)
 mkdir -p "$build_dir"
 if ! bash "$root/scripts/build.sh" --target "${targets[*]}" "$build_dir" \
   -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DHAPVOX_SANITIZE=address \
@@ -30,7 +30,7 @@ fi
 # header comment. Seeds are prefixed accordingly.
 seeds="$build_dir/seeds"
 rm -rf "$seeds"
-mkdir -p "$seeds"/{volume_fuzz,dicom_fuzz,trace_fuzz,materials_fuzz,incision_fuzz,bridge_fuzz,pointer_script_fuzz}
+mkdir -p "$seeds"/{volume_fuzz,dicom_fuzz,trace_fuzz,materials_fuzz,incision_fuzz,bridge_fuzz,pointer_script_fuzz,sweep_manifest_fuzz}
 prefixed() {  # prefixed PREFIX_PRINTF_FORMAT FILE OUT
   { printf "$1"; cat "$2"; } >"$3"
 }
@@ -107,6 +107,7 @@ PY
 
 # Sculpting window scripts (haptics/pointer_script.h): the bundled one.
 cp "$root"/traces/*.script "$seeds/pointer_script_fuzz/"
+cp "$root"/data/sweep_example.toml "$seeds/sweep_manifest_fuzz/"
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-"abort_on_error=1"}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-"print_stacktrace=1:halt_on_error=1"}
