@@ -21,6 +21,7 @@ void add_mesh_command(CLI::App& app);            // tools/cmd_mesh.cc
 void add_convert_command(CLI::App& app);         // tools/cmd_convert.cc
 void add_device_sim_command(CLI::App& app);      // tools/cmd_device_sim.cc
 void add_sculpt_command(CLI::App& app);          // tools/cmd_sculpt.cc
+void add_sweep_command(CLI::App& app);           // tools/cmd_sweep.cc
 }  // namespace hapvox::cli
 
 namespace {
@@ -89,6 +90,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_convert_command(app);
   hapvox::cli::add_device_sim_command(app);
   hapvox::cli::add_sculpt_command(app);
+  hapvox::cli::add_sweep_command(app);
   try {
     check_command_names(app, argc, argv);
     app.parse(argc, argv);
