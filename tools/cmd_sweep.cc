@@ -118,6 +118,15 @@ void run_sweep(const SweepFlags& f) {
                                               std::to_string(manifest.rows[it->second].line) + ")");
     }
   }
+  // The summary may not land on an input (a row's trace named summary.csv in DIR).
+  std::vector<InputPath> inputs = {{f.manifest, "manifest"}};
+  for (const haptics::SweepRow& row : manifest.rows) {
+    inputs.push_back({row.trace, "trace"});
+    for (const InputPath& input : volume_inputs(row.volume)) inputs.push_back(input);
+    if (!row.materials.empty()) inputs.push_back({row.materials, "materials file"});
+  }
+  check_outputs_spare_inputs({{(fs::path(f.output_dir) / "summary.csv").string(), "--output", ""}},
+                             inputs);
   const int parallel =
       f.jobs > 0 ? f.jobs : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   fs::create_directories(f.output_dir);

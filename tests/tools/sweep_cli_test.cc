@@ -241,6 +241,18 @@ TEST(SweepCli, ABadManifestIsOneLineNamingItsLineAndRunsNoRow) {
                "1: as replay flags: The following arguments were not expected: 1 --shake");
   expect_error(grid + "[[row]]\ntrace = 'press16.csv'\nvolume = 'block:dims=48'\n",
                "3: the same replay as row 1 (line 1)");
+  // The summary would overwrite a row's trace: refused, the trace kept.
+  fs::create_directories(dir + "/here");
+  fs::copy_file(dir + "/press16.csv", dir + "/here/summary.csv");
+  std::ofstream(dir + "/here/m.toml") << "traces = ['summary.csv']\nvolumes = ['block:dims=48']\n";
+  const testing::CommandResult r = run_hapvox("sweep " + dir + "/here/m.toml -o " + dir + "/here");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "hapvox: error: " + dir +
+                       "/here/summary.csv: --output would overwrite the "
+                       "input trace " +
+                       dir + "/here/summary.csv\n");
+  EXPECT_EQ(testing::read_file(dir + "/here/summary.csv"),
+            testing::read_file(dir + "/press16.csv"));
 }
 
 }  // namespace
