@@ -49,21 +49,24 @@ std::string resolved_volume(const std::string& spec, const std::string& base_dir
   return engine::is_generator_spec(spec) ? spec : resolved(spec, base_dir);
 }
 
-const std::string& string_of(const Reporter& r, const std::string& key, const toml::node& node) {
+// A string; empty only where `may_be_empty` (materials: "" for none).
+const std::string& string_of(const Reporter& r, const std::string& key, const toml::node& node,
+                             bool may_be_empty = false) {
   const auto* value = node.as_string();
   if (value == nullptr) r.fail(node, key + " must be a string");
+  if (!may_be_empty && value->get().empty()) r.fail(node, key + " must not be empty");
   return value->get();
 }
 
 // A string or a list of strings (not empty).
 std::vector<std::string> strings_of(const Reporter& r, const std::string& key,
-                                    const toml::node& node) {
+                                    const toml::node& node, bool may_be_empty = false) {
   std::vector<std::string> out;
   if (const toml::array* array = node.as_array()) {
     if (array->empty()) r.fail(node, key + " must not be an empty list");
-    for (const toml::node& e : *array) out.push_back(string_of(r, key, e));
+    for (const toml::node& e : *array) out.push_back(string_of(r, key, e, may_be_empty));
   } else {
-    out.push_back(string_of(r, key, node));
+    out.push_back(string_of(r, key, node, may_be_empty));
   }
   return out;
 }
@@ -165,7 +168,7 @@ SweepRow explicit_row(const Reporter& r, const toml::table& table, const std::st
     } else if (name == "model") {
       row.model = string_of(r, name, node);
     } else if (name == "materials") {
-      row.materials = resolved(string_of(r, name, node), base_dir);
+      row.materials = resolved(string_of(r, name, node, true), base_dir);
     } else if (name == "options") {
       for (auto& [option, values] : options_of(r, node, false)) {
         if (values.front()) row.options.emplace_back(option, *values.front());
@@ -219,7 +222,7 @@ SweepManifest parse_sweep_manifest(std::string_view text, const std::string& sou
       for (const std::string& m : models) check_model(r, Reporter::line(node), m);
     } else if (name == "materials") {
       materials.clear();
-      for (const std::string& m : strings_of(r, name, node)) {
+      for (const std::string& m : strings_of(r, name, node, true)) {
         materials.push_back(resolved(m, base_dir));
       }
     } else if (name == "options") {

@@ -124,6 +124,10 @@ TEST(SweepManifest, MistakesAreOneLineNamingTheManifestsLine) {
   EXPECT_EQ(error("traces = []\nvolumes = ['block']\n"),
             "m.toml:1: traces must not be an empty list");
   EXPECT_EQ(error("traces = ['a.csv']\nvolumes = [3]\n"), "m.toml:2: volumes must be a string");
+  // (Found by the fuzz target: an empty volume passed.) Only materials may be "" (none).
+  EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block', '']\n"),
+            "m.toml:2: volumes must not be empty");
+  EXPECT_EQ(error("[[row]]\ntrace = ''\nvolume = 'block'\n"), "m.toml:2: trace must not be empty");
   EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block']\nmodels = ['fem', 'mesh']\n"),
             "m.toml:3: unknown model 'mesh' (voxel or fem)");
   EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block']\n[options]\noutput = 'x.h5'\n"),
