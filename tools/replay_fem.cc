@@ -107,16 +107,15 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   std::optional<haptics::Trace> trace;
   if (!live) trace = haptics::read_trace(f.trace_path, columns);
   const engine::DensityField field = engine::load_volume(f.volume, mapping);
-  // The device: a replayed trace, the window's (sculpt), or the bridge (bound here, before
-  // any file is made: a port in use is one line).
+  // The device: a replayed trace, the window's (sculpt), or the bridge. The bridge is bound
+  // last, once the mesh is built (seconds for a big one, or under a sanitizer): a device
+  // program waits for the port, and what it sent before the loop ran would be lost.
   std::unique_ptr<haptics::TraceDevice> traced;
   std::unique_ptr<haptics::Device> fronted;
   std::unique_ptr<haptics::BridgeDevice> bridge;
   if (windowed) {
     fronted = f.front_end->make_device(field, options.tool_radius_mm);
-  } else if (live) {
-    bridge = make_bridge_device(f, f.transform.resolve_fixed());
-  } else {
+  } else if (!live) {
     haptics::ResampleOptions resample_options;
     resample_options.rate_hz = f.trace.rate_hz;
     resample_options.max_gap_s = f.trace.max_gap_s;
@@ -124,18 +123,10 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                                                     f.transform.resolve(*trace, field));
     if (traced->tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
   }
-  haptics::Device& device = fronted  ? *fronted
-                            : bridge ? static_cast<haptics::Device&>(*bridge)
-                                     : *traced;
-  // The bridge's counts go in the session: ours, or the one behind sculpt's window.
-  const haptics::BridgeDevice* bridged = bridge     ? bridge.get()
-                                         : windowed ? f.front_end->bridge
-                                                    : nullptr;
-  // A tick's time: the trace's, or (live) ticks from zero at the loop's rate.
-  auto time_s = [&](std::int64_t tick) {
-    return traced ? traced->time_s(static_cast<std::size_t>(tick))
-                  : static_cast<double>(tick) / device.rate_hz();
-  };
+  // The bridge's loop runs at the trace flags' rate (make_bridge_device).
+  const double rate_hz = fronted  ? fronted->rate_hz()
+                         : traced ? traced->rate_hz()
+                                  : f.trace.rate_hz;
   if (!f.render_dir.empty()) check_render_flags(f, field);  // before the mesh is built
   // The mesh is refined further where a trace's tool goes; a live session's path is not
   // known ahead (its trace replays with --no-tool-refine).
@@ -143,11 +134,10 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   if (traced && !f.no_tool_refine) tool_region = fem_tool_region(*traced, options.tool_radius_mm);
   const ProxyInputs proxy_inputs = proxy_inputs_from_cli(f.volume, f.fem_mesh, tool_region);
   const std::size_t ticks = traced ? traced->tick_count() : 0;
-  std::vector<haptics::LabelChange> changes =
-      label_changes(relabels, proxy_inputs, ticks, device.rate_hz());
+  std::vector<haptics::LabelChange> changes = label_changes(relabels, proxy_inputs, ticks, rate_hz);
   engine::proxy::ProxyMesh proxy = engine::proxy::build_proxy_mesh(
       proxy_inputs.labels, proxy_inputs.materials, proxy_inputs.mesh);
-  if (incision) plan_incision(*incision, live, ticks, device.rate_hz(), proxy, changes);
+  if (incision) plan_incision(*incision, live, ticks, rate_hz, proxy, changes);
   const haptics::FemModel model(std::move(proxy), options);
   // The stages (haptics/fem_model.h); the loops see only their seams.
   auto handoff = std::make_unique<haptics::FemHandoff>();
@@ -167,7 +157,22 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
   if (recorder) recorder->use_proxy_mesh();
   // The window, before the session file (a machine without a display fails before any output).
   haptics::RenderLoop window_loop;
-  if (windowed) window_loop = f.front_end->make_render_loop(field, device, options.tool_radius_mm);
+  if (windowed)
+    window_loop = f.front_end->make_render_loop(field, *fronted, options.tool_radius_mm);
+  // The bridge, bound before any file is made (a port in use is one line).
+  if (live && !windowed) bridge = make_bridge_device(f, f.transform.resolve_fixed());
+  haptics::Device& device = fronted  ? *fronted
+                            : bridge ? static_cast<haptics::Device&>(*bridge)
+                                     : *traced;
+  // The bridge's counts go in the session: ours, or the one behind sculpt's window.
+  const haptics::BridgeDevice* bridged = bridge     ? bridge.get()
+                                         : windowed ? f.front_end->bridge
+                                                    : nullptr;
+  // A tick's time: the trace's, or (live) ticks from zero at the loop's rate.
+  auto time_s = [&](std::int64_t tick) {
+    return traced ? traced->time_s(static_cast<std::size_t>(tick))
+                  : static_cast<double>(tick) / device.rate_hz();
+  };
 
   haptics::SessionWriter session(f.output);
   write_run_attributes(session, f, command_line, columns, mapping, field, device,

@@ -183,8 +183,9 @@ TEST(DeviceBridgeCli, ADeviceProgramPressesTheProxyMeshThroughTheBridge) {
   const std::string fem = " --volume block:dims=48,fill=1 --model fem --materials " +
                           testing::source_path("data/clay_block.toml") +
                           " --no-tool-refine --tool-diameter-mm 8 -q";
-  ASSERT_EQ(
-      run_hapvox("replay " + dir + "/press.csv" + fem + " -o " + dir + "/direct.h5").exit_code, 0);
+  const testing::CommandResult direct =
+      run_hapvox("replay " + dir + "/press.csv" + fem + " -o " + dir + "/direct.h5");
+  ASSERT_EQ(direct.exit_code, 0) << direct.err;
   const std::uint16_t port = free_port();
   const std::string device = "udp:127.0.0.1:" + std::to_string(port);
   testing::CommandResult live;
