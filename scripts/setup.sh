@@ -16,6 +16,7 @@ packages=(
   python3-h5py python3-numpy python3-matplotlib
   python3-nibabel mricron-data  # an independent NIfTI reader and real NIfTI files, for tests
   python3-pydicom  # DICOM test files and series written by another tool, for tests
+  parallel  # sweep --hosts runs its rows through GNU parallel (GPL-3): a program run, never linked
   tetgen  # a program the mesh comparison runs (AGPL-3): never linked (docs/licences.md)
   "$@"
 )

@@ -1,5 +1,7 @@
 // hapvox report SESSION.h5 -o DIR: pictures of a session (force over time, lateness
-// histogram, queue depth and relaxation work), drawn by matplotlib.
+// histogram, queue depth and relaxation work), drawn by matplotlib. hapvox report SWEEP_DIR
+// -o DIR: pictures across a sweep (peak force against tool size and stiffness), from its
+// summary.h5.
 //
 // Plotting is left to matplotlib (Debian's python3-matplotlib with python3-h5py) rather
 // than hand-written: the script is compiled into the binary (tools/report.py) and run
@@ -15,6 +17,7 @@
 #include "haptics/session.h"
 #include "tools/cli.h"
 #include "tools/report_script.h"
+#include "tools/sweep_report_script.h"
 
 namespace hapvox::cli {
 namespace {
@@ -25,7 +28,49 @@ struct ReportFlags {
   std::string python = "/usr/bin/python3";
 };
 
+void check_python(const std::string& python) {
+  const std::string probe =
+      shell_quoted(python) + " -c 'import matplotlib, h5py, numpy' 2>/dev/null";
+  if (std::system(probe.c_str()) != 0) {
+    throw InputError("--python", python +
+                                     " cannot import matplotlib, h5py and numpy (install "
+                                     "python3-matplotlib python3-h5py; scripts/setup.sh does)");
+  }
+}
+
+// The pictures' directory (and its parents) is made when missing, as `-o plots/` on a fresh
+// clone expects; only once everything else has been checked.
+void make_output_dir(const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (!std::filesystem::is_directory(dir)) {
+    throw InputError(dir, "cannot create the output directory" +
+                              (error ? " (" + error.message() + ")" : std::string()));
+  }
+}
+
+// A sweep's directory: its summary.h5 drawn.
+void run_sweep_report(const ReportFlags& f) {
+  const std::string summary = (std::filesystem::path(f.session) / "summary.h5").string();
+  if (!haptics::is_hdf5_file(summary)) {
+    throw InputError(f.session,
+                     "is a directory without a sweep's summary.h5 (hapvox sweep --collect DIR "
+                     "writes one)");
+  }
+  check_outputs_spare_inputs({{f.out_dir, "--output", "sweep_peak_force\\.png"}},
+                             {{summary, "sweep summary"}});
+  check_python(f.python);
+  make_output_dir(f.out_dir);
+  const int status =
+      run_python_script(f.python, kSweepReportScript, "sweep_report", {summary, f.out_dir});
+  if (status != 0) {
+    throw InputError(summary,
+                     "plotting failed (python exit status " + std::to_string(status) + ")");
+  }
+}
+
 void run_report(const ReportFlags& f) {
+  if (std::filesystem::is_directory(f.session)) return run_sweep_report(f);
   if (!haptics::is_hdf5_file(f.session)) {
     throw InputError(f.session, std::filesystem::exists(f.session) ? "not an HDF5 session file"
                                                                    : "no such file");
@@ -34,21 +79,8 @@ void run_report(const ReportFlags& f) {
                              {{f.session, "session"}});
   const haptics::SessionInfo info = haptics::read_session_info(f.session);
   if (info.rows == 0) throw InputError(f.session, "the session has no rows");
-  const std::string probe =
-      shell_quoted(f.python) + " -c 'import matplotlib, h5py, numpy' 2>/dev/null";
-  if (std::system(probe.c_str()) != 0) {
-    throw InputError("--python", f.python +
-                                     " cannot import matplotlib, h5py and numpy (install "
-                                     "python3-matplotlib python3-h5py; scripts/setup.sh does)");
-  }
-  // The pictures' directory (and its parents) is made when missing, as `-o plots/` on a
-  // fresh clone expects; only once everything else has been checked.
-  std::error_code error;
-  std::filesystem::create_directories(f.out_dir, error);
-  if (!std::filesystem::is_directory(f.out_dir)) {
-    throw InputError(f.out_dir, "cannot create the output directory" +
-                                    (error ? " (" + error.message() + ")" : std::string()));
-  }
+  check_python(f.python);
+  make_output_dir(f.out_dir);
   const int status = run_python_script(f.python, kReportScript, "report", {f.session, f.out_dir});
   if (status != 0) {
     throw InputError(f.session,
@@ -63,8 +95,10 @@ void add_report_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "report",
       "Draw a session: force.png, lateness.png (realtime) and relax.png (plastic) into a "
-      "directory");
-  cmd->add_option("session", flags->session, "Session file (.h5)")->required();
+      "directory; or a sweep's directory: sweep_peak_force.png (peak force against tool size "
+      "and stiffness)");
+  cmd->add_option("session", flags->session, "Session file (.h5), or a sweep's directory")
+      ->required();
   cmd->add_option("--output,-o", flags->out_dir,
                   "Directory for the pictures (made, with its parents, when missing)")
       ->capture_default_str();

@@ -1,5 +1,7 @@
 #include "tools/sweep_summary.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -7,6 +9,7 @@
 #include <map>
 
 #include "engine/errors.h"
+#include "haptics/hdf5_id.h"
 #include "haptics/session.h"
 
 namespace hapvox::cli {
@@ -14,8 +17,8 @@ namespace {
 
 // A finished session's numbers, as text ("" where it has none).
 struct SessionNumbers {
-  std::string peak_force_n, rms_force_n, contact_time_s, compute_p99_us, lateness_p99_us,
-      mass_drift_units;
+  std::string tool_diameter_mm, youngs_modulus_pa, peak_force_n, rms_force_n, contact_time_s,
+      compute_p99_us, lateness_p99_us, mass_drift_units;
 };
 
 SessionNumbers numbers_of(const std::string& session) {
@@ -27,6 +30,9 @@ SessionNumbers numbers_of(const std::string& session) {
     return it == attributes.end() ? std::string() : it->second;
   };
   SessionNumbers n;
+  n.tool_diameter_mm = attribute("tool_diameter_mm");
+  n.youngs_modulus_pa =
+      attribute("youngs_modulus_pa");  // the command line's (materials: per tissue)
   n.peak_force_n = attribute("summary_peak_force_n");
   n.contact_time_s = attribute("summary_contact_time_s");
   n.compute_p99_us = attribute("summary_compute_p99_us");
@@ -49,6 +55,51 @@ SessionNumbers numbers_of(const std::string& session) {
   return n;
 }
 
+struct Column {
+  const char* name;
+  bool number;
+};
+constexpr std::array<Column, 16> kColumns = {{{"id", false},
+                                              {"status", false},
+                                              {"trace", false},
+                                              {"volume", false},
+                                              {"model", false},
+                                              {"materials", false},
+                                              {"options", false},
+                                              {"tool_diameter_mm", true},
+                                              {"youngs_modulus_pa", true},
+                                              {"peak_force_n", true},
+                                              {"rms_force_n", true},
+                                              {"contact_time_s", true},
+                                              {"compute_p99_us", true},
+                                              {"lateness_p99_us", true},
+                                              {"mass_drift_units", true},
+                                              {"error", false}}};
+
+// Each row's cells as text, in kColumns' order ("" where a row has no value).
+using SweepTable = std::vector<std::vector<std::string>>;
+
+SweepTable sweep_table(const std::vector<haptics::SweepRow>& rows,
+                       const std::vector<SweepOutcome>& outcomes) {
+  SweepTable table;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const haptics::SweepRow& row = rows[i];
+    const SweepOutcome& outcome = outcomes[i];
+    std::string options;
+    for (const auto& [name, value] : row.options) {
+      if (!options.empty()) options += ' ';
+      options += "--" + name + (value.empty() ? "" : " " + value);
+    }
+    SessionNumbers n;
+    if (outcome.status == "done") n = numbers_of(outcome.session);
+    table.push_back({outcome.id, outcome.status, row.trace, row.volume, row.model, row.materials,
+                     options, n.tool_diameter_mm, n.youngs_modulus_pa, n.peak_force_n,
+                     n.rms_force_n, n.contact_time_s, n.compute_p99_us, n.lateness_p99_us,
+                     n.mass_drift_units, outcome.error});
+  }
+  return table;
+}
+
 }  // namespace
 
 std::string csv_cell(const std::string& text) {
@@ -61,35 +112,87 @@ std::string csv_cell(const std::string& text) {
   return quoted + "\"";
 }
 
-void write_sweep_summary(const std::string& path, const std::vector<haptics::SweepRow>& rows,
-                         const std::vector<SweepOutcome>& outcomes) {
+namespace {
+
+void write_csv(const std::string& path, const SweepTable& table) {
   const std::string partial = path + ".partial";
   {
     std::ofstream out(partial);
     if (!out) throw InputError(path, "cannot be written");
-    out << "id,status,trace,volume,model,materials,options,peak_force_n,rms_force_n,"
-           "contact_time_s,compute_p99_us,lateness_p99_us,mass_drift_units,error\n";
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      const haptics::SweepRow& row = rows[i];
-      const SweepOutcome& outcome = outcomes[i];
-      std::string options;
-      for (const auto& [name, value] : row.options) {
-        if (!options.empty()) options += ' ';
-        options += "--" + name + (value.empty() ? "" : " " + value);
+    for (std::size_t c = 0; c < kColumns.size(); ++c) {
+      out << kColumns[c].name << (c + 1 < kColumns.size() ? ',' : '\n');
+    }
+    for (const std::vector<std::string>& row : table) {
+      for (std::size_t c = 0; c < row.size(); ++c) {
+        out << csv_cell(row[c]) << (c + 1 < row.size() ? ',' : '\n');
       }
-      SessionNumbers n;
-      if (outcome.status == "done") n = numbers_of(outcome.session);
-      for (const std::string& cell :
-           {outcome.id, outcome.status, row.trace, row.volume, row.model, row.materials, options,
-            n.peak_force_n, n.rms_force_n, n.contact_time_s, n.compute_p99_us, n.lateness_p99_us,
-            n.mass_drift_units}) {
-        out << csv_cell(cell) << ',';
-      }
-      out << csv_cell(outcome.error) << '\n';
     }
     if (!out.flush()) throw InputError(path, "cannot be written");
   }
   std::filesystem::rename(partial, path);
+}
+
+void write_h5(const std::string& path, const SweepTable& table) {
+  const std::string partial = path + ".partial";
+  {
+    haptics::H5Id file(H5Fcreate(partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
+                       H5Fclose);
+    if (!file.valid()) throw InputError(path, "cannot be written");
+    const hsize_t count = table.size();
+    haptics::H5Id space(H5Screate_simple(1, &count, nullptr), H5Sclose);
+    bool ok = true;
+    std::string names;
+    for (std::size_t c = 0; c < kColumns.size(); ++c) {
+      names += (c > 0 ? "," : "") + std::string(kColumns[c].name);
+      if (kColumns[c].number) {
+        std::vector<double> values(table.size());
+        for (std::size_t r = 0; r < table.size(); ++r) {
+          const std::string& cell = table[r][c];
+          values[r] = cell.empty() ? std::nan("") : std::stod(cell);
+        }
+        haptics::H5Id set(H5Dcreate2(file.get(), kColumns[c].name, H5T_IEEE_F64LE, space.get(),
+                                     H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                          H5Dclose);
+        ok = ok && set.valid() &&
+             H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) >=
+                 0;
+      } else {
+        std::size_t width = 1;
+        for (const auto& row : table) width = std::max(width, row[c].size() + 1);
+        std::vector<char> text(width * table.size(), '\0');
+        for (std::size_t r = 0; r < table.size(); ++r) {
+          std::copy(table[r][c].begin(), table[r][c].end(), text.begin() + r * width);
+        }
+        haptics::H5Id type(H5Tcopy(H5T_C_S1), H5Tclose);
+        H5Tset_size(type.get(), width);
+        H5Tset_cset(type.get(), H5T_CSET_UTF8);
+        haptics::H5Id set(H5Dcreate2(file.get(), kColumns[c].name, type.get(), space.get(),
+                                     H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                          H5Dclose);
+        ok = ok && set.valid() &&
+             H5Dwrite(set.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, text.data()) >= 0;
+      }
+    }
+    haptics::H5Id type(H5Tcopy(H5T_C_S1), H5Tclose);
+    H5Tset_size(type.get(), names.size() + 1);
+    haptics::H5Id scalar(H5Screate(H5S_SCALAR), H5Sclose);
+    haptics::H5Id attribute(
+        H5Acreate2(file.get(), "columns", type.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT),
+        H5Aclose);
+    ok = ok && attribute.valid() && H5Awrite(attribute.get(), type.get(), names.c_str()) >= 0;
+    ok = attribute.close() && ok;
+    if (!ok || !file.close()) throw InputError(path, "cannot be written");
+  }
+  std::filesystem::rename(partial, path);
+}
+
+}  // namespace
+
+void write_sweep_summaries(const std::string& dir, const std::vector<haptics::SweepRow>& rows,
+                           const std::vector<SweepOutcome>& outcomes) {
+  const SweepTable table = sweep_table(rows, outcomes);
+  write_csv(dir + "/summary.csv", table);
+  write_h5(dir + "/summary.h5", table);
 }
 
 }  // namespace hapvox::cli

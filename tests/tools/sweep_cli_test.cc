@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -18,111 +19,24 @@
 
 #include "haptics/session.h"
 #include "test_data.h"
+#include "tools/sweep_testing.h"
 
 namespace hapvox {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::expect_same_sessions;
+using testing::read_summary;
 using testing::run_hapvox;
+using testing::run_hapvox_env;
+using testing::run_row_command_in;
 using testing::scratch_dir;
-
-// Three presses into the clay block (block:dims=48: its top at z = 23.5) at three places.
-void write_traces(const std::string& dir) {
-  for (const char* x : {"16", "24", "32"}) {
-    ASSERT_EQ(run_hapvox(std::string("trace make press-release -o ") + dir + "/press" + x +
-                         ".csv --start-mm " + x + ",24,29 --travel-mm 3.5 --hold-s 0.2")
-                  .exit_code,
-              0);
-  }
-  // A second clay, three times as stiff as data/clay_block.toml's.
-  std::ofstream(dir + "/stiff.toml") << "[[material]]\nlabel = 0\nname = \"air\"\n"
-                                        "youngs_modulus_pa = 1e3\npoisson_ratio = 0.3\n"
-                                        "[[material]]\nlabel = 1\nname = \"stiff clay\"\n"
-                                        "youngs_modulus_pa = 300e3\npoisson_ratio = 0.3\n"
-                                        "intensity = [0.5, 1.0]\n";
-}
-
-std::vector<std::map<std::string, std::string>> read_summary(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::string> header;
-  std::stringstream names(line);
-  for (std::string cell; std::getline(names, cell, ',');) header.push_back(cell);
-  std::vector<std::map<std::string, std::string>> rows;
-  while (std::getline(in, line)) {
-    std::map<std::string, std::string> row;
-    std::size_t column = 0;
-    std::string cell;
-    bool quoted = false;
-    for (std::size_t i = 0; i <= line.size(); ++i) {
-      const char c = i < line.size() ? line[i] : ',';
-      if (quoted) {
-        if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-          cell += '"';
-          ++i;
-        } else if (c == '"') {
-          quoted = false;
-        } else {
-          cell += c;
-        }
-      } else if (c == '"') {
-        quoted = true;
-      } else if (c == ',') {
-        if (column < header.size()) row[header[column]] = cell;
-        ++column;
-        cell.clear();
-      } else {
-        cell += c;
-      }
-    }
-    rows.push_back(row);
-  }
-  return rows;
-}
-
-// A row's command (DIR/ID.cmd: "cd DIR && hapvox ARGS") run as a single replay in `dir`.
-int run_row_command_in(const std::string& cmd_file, const std::string& dir) {
-  const std::string cmd = testing::read_file(cmd_file);
-  const std::size_t at = cmd.find("&& hapvox ");
-  EXPECT_NE(at, std::string::npos) << cmd;
-  const std::string args = cmd.substr(at + 10, cmd.find_last_not_of('\n') - at - 9);
-  // argv[0] "hapvox", as the sweep runs it: the session records its command line.
-  const std::string line = "cd '" + dir + "' && exec -a hapvox " + testing::hapvox_binary() + " " +
-                           args + " > /dev/null 2>&1";
-  return std::system(("bash -c " + std::string("\"") + line + "\"").c_str());
-}
-
-// Every dataset and attribute equal, but those that time the computer (compute_ns, timing/*,
-// summary_compute_*).
-void expect_same_sessions(const std::string& a, const std::string& b) {
-  const haptics::SessionInfo ia = haptics::read_session_info(a);
-  const haptics::SessionInfo ib = haptics::read_session_info(b);
-  ASSERT_EQ(ia.datasets, ib.datasets);
-  std::size_t compared = 0;
-  for (const std::string& d : ia.datasets) {
-    if (d.find("compute") != std::string::npos || d.rfind("/timing", 0) == 0) continue;
-    EXPECT_EQ(haptics::read_session_column(a, d), haptics::read_session_column(b, d)) << a << d;
-    ++compared;
-  }
-  EXPECT_GT(compared, 10u);
-  ASSERT_EQ(ia.attributes.size(), ib.attributes.size());
-  for (std::size_t i = 0; i < ia.attributes.size(); ++i) {
-    if (ia.attributes[i].first.rfind("summary_compute", 0) == 0) continue;
-    EXPECT_EQ(ia.attributes[i], ib.attributes[i]) << a;
-  }
-}
+using testing::write_traces;
 
 TEST(SweepCli, TwelveRowsTwoAtATimeAreTheSessionsOfTwelveSingleReplays) {
   const std::string dir = scratch_dir();
   write_traces(dir);
-  std::ofstream(dir + "/sweep.toml") << "traces = ['press16.csv', 'press24.csv', 'press32.csv']\n"
-                                        "volumes = ['block:dims=48']\n"
-                                        "materials = ['"
-                                     << testing::source_path("data/clay_block.toml")
-                                     << "', 'stiff.toml']\n"
-                                        "[options]\n"
-                                        "tool-diameter-mm = [6, 8]\n";
+  testing::write_twelve_row_manifest(dir);
   const testing::CommandResult sweep =
       run_hapvox("sweep " + dir + "/sweep.toml -o " + dir + "/out -j 2");
   ASSERT_EQ(sweep.exit_code, 0) << sweep.err << sweep.out;
@@ -147,6 +61,209 @@ TEST(SweepCli, TwelveRowsTwoAtATimeAreTheSessionsOfTwelveSingleReplays) {
   ASSERT_EQ(peak_by_material.size(), 2u);
   EXPECT_GT(peak_by_material[dir + "/stiff.toml"],
             2.0 * peak_by_material[testing::source_path("data/clay_block.toml")]);
+  // summary.h5 holds the same table: the CSV's numbers (printed with 6 digits from the
+  // sessions' attributes) and NaN where the CSV has an empty cell.
+  const std::string h5 = dir + "/out/summary.h5";
+  const std::vector<double> peak = haptics::read_session_column(h5, "/peak_force_n");
+  const std::vector<double> lateness = haptics::read_session_column(h5, "/lateness_p99_us");
+  ASSERT_EQ(peak.size(), 12u);
+  ASSERT_EQ(lateness.size(), 12u);
+  for (std::size_t i = 0; i < 12; ++i) {
+    EXPECT_EQ(peak[i], std::stod(summary[i].at("peak_force_n"))) << i;
+    EXPECT_TRUE(std::isnan(lateness[i])) << i;
+  }
+  // The sessions' tools, as the grid set them.
+  const std::vector<double> tool_mm = haptics::read_session_column(h5, "/tool_diameter_mm");
+  ASSERT_EQ(tool_mm.size(), 12u);
+  for (std::size_t i = 0; i < 12; ++i) EXPECT_EQ(tool_mm[i], i % 2 == 0 ? 6.0 : 8.0) << i;
+  // hapvox report DIR draws the sweep; a directory without a summary is one line.
+  const testing::CommandResult report = run_hapvox("report " + dir + "/out -o " + dir + "/plots");
+  ASSERT_EQ(report.exit_code, 0) << report.err;
+  EXPECT_EQ(report.out, "wrote " + dir + "/plots/sweep_peak_force.png\n");
+  EXPECT_EQ(testing::read_file(dir + "/plots/sweep_peak_force.png").substr(1, 3), "PNG");
+  const testing::CommandResult bare = run_hapvox("report " + dir + "/single -o " + dir + "/p2");
+  EXPECT_EQ(bare.exit_code, 2);
+  EXPECT_EQ(bare.err, "hapvox: error: " + dir +
+                          "/single: is a directory without a sweep's summary.h5 (hapvox sweep "
+                          "--collect DIR writes one)\n");
+  EXPECT_FALSE(fs::exists(dir + "/p2"));
+}
+
+// Stand-ins for sbatch and squeue in DIR/bin: sbatch runs each task of the job array here,
+// one after another, with SLURM_ARRAY_TASK_ID set, and answers job 77; squeue no longer
+// knows the job. What the real Slurm does with the same script, CI's Slurm stage checks
+// (sweep_slurm_check.cc).
+std::string fake_slurm(const std::string& dir) {
+  fs::create_directories(dir + "/bin");
+  std::ofstream(dir + "/bin/sbatch")
+      << "#!/bin/bash\n"
+         "[ \"$1\" = --parsable ] && shift\n"
+         "echo \"$1\" >> "
+      << dir
+      << "/bin/submitted\n"
+         "range=$(sed -n 's/^#SBATCH --array=\\([0-9]*-[0-9]*\\).*/\\1/p' \"$1\")\n"
+         "for t in $(seq ${range%-*} ${range#*-}); do\n"
+         "  SLURM_ARRAY_TASK_ID=$t bash \"$1\" > /dev/null 2>&1\n"
+         "done\n"
+         "echo 77\n";
+  std::ofstream(dir + "/bin/squeue")
+      << "#!/bin/bash\necho 'slurm_load_jobs error: Invalid job id specified' >&2\nexit 1\n";
+  fs::permissions(dir + "/bin/sbatch", fs::perms::owner_all);
+  fs::permissions(dir + "/bin/squeue", fs::perms::owner_all);
+  // The job's tasks call `hapvox` by name (the nodes' PATH).
+  return "PATH=" + dir + "/bin:" + fs::path(testing::hapvox_binary()).parent_path().string() +
+         ":$PATH";
+}
+
+// Six rows: 3 traces x 2 tool sizes on the clay block.
+void write_six_row_manifest(const std::string& dir) {
+  std::ofstream(dir + "/sweep.toml") << "traces = ['press16.csv', 'press24.csv', 'press32.csv']\n"
+                                        "volumes = ['block:dims=48']\n"
+                                        "[options]\n"
+                                        "tool-diameter-mm = [6, 8]\n";
+}
+
+TEST(SweepCli, ASlurmJobArrayRunsTheRowsTheLocalPoolRunsAndResumesWhatIsMissing) {
+  const std::string dir = scratch_dir();
+  write_traces(dir);
+  write_six_row_manifest(dir);
+  ASSERT_EQ(run_hapvox("sweep " + dir + "/sweep.toml -o " + dir + "/local -j 2").exit_code, 0);
+  const std::string path = fake_slurm(dir);
+  const std::string slurm = dir + "/slurm";
+  const testing::CommandResult r = run_hapvox_env(
+      path, "sweep " + dir + "/sweep.toml -o " + slurm +
+                " --slurm --wait --rows-per-task 4 --max-parallel 1 --partition debug --time 10");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("6 rows -> " + slurm + " (6 to run, as a Slurm job array"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("job 77 submitted (" + slurm + "/sweep.sbatch"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("6 done, 0 failed, 0 not run"), std::string::npos) << r.out;
+  EXPECT_EQ(testing::read_file(slurm + "/slurm.job"), "77\n");
+  // Two tasks (4 rows, then 2), one at a time, on the partition and time asked for.
+  const std::string script = testing::read_file(slurm + "/sweep.sbatch");
+  EXPECT_NE(script.find("\n#SBATCH --array=0-1%1\n"), std::string::npos) << script;
+  EXPECT_NE(script.find("\n#SBATCH --partition=debug\n#SBATCH --time=10\n"), std::string::npos)
+      << script;
+  const auto local = read_summary(dir + "/local/summary.csv");
+  const auto summary = read_summary(slurm + "/summary.csv");
+  ASSERT_EQ(summary.size(), 6u);
+  for (std::size_t i = 0; i < 6; ++i) {
+    const std::string id = local[i].at("id");
+    EXPECT_EQ(summary[i].at("id"), id);
+    EXPECT_EQ(summary[i].at("status"), "done");
+    EXPECT_EQ(summary[i].at("peak_force_n"), local[i].at("peak_force_n"));
+    expect_same_sessions(dir + "/local/" + id + ".h5", slurm + "/" + id + ".h5");
+  }
+  // A lost session: --emit writes a job of that row alone, and --collect counts it missing
+  // until the job has run.
+  const std::string lost = summary[4].at("id");
+  fs::remove(slurm + "/" + lost + ".h5");
+  const testing::CommandResult emit =
+      run_hapvox_env(path, "sweep " + dir + "/sweep.toml -o " + slurm + " --emit slurm");
+  ASSERT_EQ(emit.exit_code, 0) << emit.err;
+  const std::string again = testing::read_file(slurm + "/sweep.sbatch");
+  EXPECT_NE(again.find("\n#SBATCH --array=0-0\n"), std::string::npos) << again;
+  EXPECT_NE(again.find("rows=(\n  " + lost + "\n)\n"), std::string::npos) << again;
+  const testing::CommandResult missing = run_hapvox("sweep --collect " + slurm);
+  EXPECT_EQ(missing.exit_code, 101) << missing.out;
+  EXPECT_NE(missing.out.find("5 done, 0 failed, 1 not run"), std::string::npos) << missing.out;
+  ASSERT_EQ(std::system(("cd " + dir + " && " + path + " sbatch " + slurm + "/sweep.sbatch > " +
+                         "/dev/null")
+                            .c_str()),
+            0);
+  const testing::CommandResult collected = run_hapvox("sweep --collect " + slurm);
+  EXPECT_EQ(collected.exit_code, 0) << collected.out;
+  EXPECT_NE(collected.out.find("6 done, 0 failed, 0 not run"), std::string::npos) << collected.out;
+  expect_same_sessions(dir + "/local/" + lost + ".h5", slurm + "/" + lost + ".h5");
+}
+
+TEST(SweepCli, OverHostsWithGnuParallelTheRowsAreTheLocalPoolsSessions) {
+  const std::string dir = scratch_dir();
+  write_traces(dir);
+  write_six_row_manifest(dir);
+  ASSERT_EQ(run_hapvox("sweep " + dir + "/sweep.toml -o " + dir + "/local -j 2").exit_code, 0);
+  // ':' is this machine to GNU parallel (no ssh); a comment and a blank line are skipped.
+  std::ofstream(dir + "/hosts") << "# the lab's machines\n\n2/:\n";
+  const std::string path =
+      "PATH=" + fs::path(testing::hapvox_binary()).parent_path().string() + ":$PATH";
+  const testing::CommandResult r = run_hapvox_env(
+      path, "sweep " + dir + "/sweep.toml -o " + dir + "/hosts_out --hosts " + dir + "/hosts");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("(6 to run, over ssh hosts with GNU parallel"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("6 done, 0 failed, 0 not run"), std::string::npos) << r.out;
+  const auto local = read_summary(dir + "/local/summary.csv");
+  ASSERT_EQ(local.size(), 6u);
+  for (const auto& row : local) {
+    expect_same_sessions(dir + "/local/" + row.at("id") + ".h5",
+                         dir + "/hosts_out/" + row.at("id") + ".h5");
+  }
+  // parallel's job log: a line per row, each on host ':' with exit 0.
+  std::ifstream log(dir + "/hosts_out/parallel.log");
+  std::string line;
+  std::getline(log, line);  // its header
+  int rows = 0;
+  while (std::getline(log, line)) {
+    std::vector<std::string> cells;
+    std::stringstream split(line);
+    for (std::string cell; std::getline(split, cell, '\t');) cells.push_back(cell);
+    ASSERT_GE(cells.size(), 9u) << line;
+    EXPECT_EQ(cells[1], ":") << line;
+    EXPECT_EQ(cells[6], "0") << line;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 6);
+}
+
+TEST(SweepCli, BadBackendFlagsAreOneLineAndRunNoRow) {
+  const std::string dir = scratch_dir();
+  write_traces(dir);
+  write_six_row_manifest(dir);
+  const std::string sweep = "sweep " + dir + "/sweep.toml -o " + dir + "/out";
+  auto expect_error = [&](const std::string& args, const std::string& message) {
+    const testing::CommandResult r = run_hapvox(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(r.err, "hapvox: error: " + message + "\n") << args;
+    EXPECT_FALSE(fs::exists(dir + "/out")) << args;
+  };
+  expect_error(sweep + " --emit pbs", "--emit: 'pbs' is not a backend (slurm)");
+  expect_error(sweep + " --wait", "--wait: needs --slurm");
+  expect_error(sweep + " --slurm --time soon",
+               "--time: 'soon' is not a Slurm time (MINUTES, H:MM:SS, DAYS-HOURS, DAYS-H:MM:SS)");
+  expect_error(sweep + " --slurm --partition 'a b'", "--partition: 'a b' is not a partition name");
+  expect_error(sweep + " --slurm --max-parallel -1",
+               "--max-parallel: must be 0 (no limit) or more");
+  expect_error("sweep " + dir + "/sweep.toml -o '" + dir + "/o u t' --emit slurm",
+               "--output: a Slurm sweep's directory may not hold spaces, quotes, '\\', '$' or "
+               "'`' (#SBATCH lines take one plain word)");
+  expect_error(sweep + " --hosts " + dir + "/none", dir + "/none: cannot be read");
+  std::ofstream(dir + "/hosts") << "# nobody\n";
+  expect_error(sweep + " --hosts " + dir + "/hosts",
+               dir + "/hosts: names no host (one [N/]host per line; ':' for this machine)");
+  std::ofstream(dir + "/hosts") << "node1\nnode2; rm -rf /\n";
+  expect_error(sweep + " --hosts " + dir + "/hosts",
+               dir + "/hosts:2: a host line holds a quote or a shell character");
+  expect_error(sweep + " --slurm --hosts " + dir + "/hosts",
+               "--hosts: cannot be combined with --slurm");
+  expect_error(sweep + " --task-rows 0123456789abcdef",
+               "--task-rows: row 0123456789abcdef is not in " + dir +
+                   "/sweep.toml (was the manifest or one of its files changed since?)");
+  expect_error("sweep --collect " + dir, dir +
+                                             ": is not a sweep's directory (it has no "
+                                             "sweep.manifest)");
+  expect_error("sweep -o " + dir + "/out", "sweep: needs a manifest (or --collect DIR)");
+  // No sbatch on the PATH: one line, the script kept for submitting by hand.
+  const testing::CommandResult r =
+      run_hapvox_env("PATH=/usr/local/nothing:/nothing", sweep + " --slurm");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err,
+            "hapvox: error: --slurm: sbatch is not on this machine's PATH (is this a Slurm "
+            "login node? --emit slurm writes the script alone)\n");
+}
+
+// A row's session in a sweep's directory (ID.h5; summary.h5 is not one).
+bool is_session(const fs::path& path) {
+  return path.extension() == ".h5" && path.filename() != "summary.h5";
 }
 
 TEST(SweepCli, AKilledSweepRerunsOnlyItsMissingRowsAndAFailedRowIsCounted) {
@@ -169,7 +286,7 @@ TEST(SweepCli, AKilledSweepRerunsOnlyItsMissingRowsAndAFailedRowIsCounted) {
   auto done_rows = [&] {
     int n = 0;
     if (!fs::exists(out)) return 0;
-    for (const auto& e : fs::directory_iterator(out)) n += e.path().extension() == ".h5";
+    for (const auto& e : fs::directory_iterator(out)) n += is_session(e.path());
     return n;
   };
   for (int i = 0; i < 3000 && done_rows() < 2; ++i) {
@@ -185,7 +302,7 @@ TEST(SweepCli, AKilledSweepRerunsOnlyItsMissingRowsAndAFailedRowIsCounted) {
   ASSERT_LT(done_first, 6);  // one row at a time: it had rows left
   std::map<std::string, fs::file_time_type> first_sessions;
   for (const auto& e : fs::directory_iterator(out)) {
-    if (e.path().extension() == ".h5") first_sessions[e.path().string()] = e.last_write_time();
+    if (is_session(e.path())) first_sessions[e.path().string()] = e.last_write_time();
     EXPECT_NE(e.path().extension(), ".partial") << e.path();
   }
   const auto killed = read_summary(out + "/summary.csv");
