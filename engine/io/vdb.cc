@@ -225,7 +225,8 @@ DensityField read_checked_vdb(const std::string& path) {
 
 DensityField read_vdb(const std::string& path) {
   initialize_openvdb();
-  if (!fs::is_regular_file(path)) throw InputError(path, "cannot open file");
+  std::error_code error;  // a name too long for the system is not a file, not a crash
+  if (!fs::is_regular_file(path, error)) throw InputError(path, "cannot open file");
   check_vdb_in_child(path);
   return read_checked_vdb(path);
 }
@@ -270,7 +271,8 @@ void write_vdb_labels(const WrittenVolume& volume, const std::string& path) {
 
 RawVolume read_vdb_samples(const std::string& path) {
   initialize_openvdb();
-  if (!fs::is_regular_file(path)) throw InputError(path, "cannot open file");
+  std::error_code error;  // a name too long for the system is not a file, not a crash
+  if (!fs::is_regular_file(path, error)) throw InputError(path, "cannot open file");
   check_vdb_in_child(path);
   // A file with a float grid holds densities; one with only an Int32 grid holds labels.
   openvdb::Int32Grid::Ptr grid;

@@ -122,6 +122,17 @@ TEST(VolumeFuzz, MutationsOfEveryFormatReadOrGiveOneLineErrors) {
   EXPECT_GT(rejected, 1000);
 }
 
+// Found by volume_fuzz in CI: a raw file's layout line ending in ".vdb" made the spec a
+// .vdb path with a name longer than the system allows, whose check threw filesystem_error
+// (a crash) instead of "cannot open file".
+TEST(VolumeFuzz, ASpecWithANameTooLongForTheSystemIsOneLineNotACrash) {
+  const std::string dir = scratch_dir();
+  EXPECT_FALSE(read_as_volume(4, std::string(300, 'x') + ".vdb\n" + kEightBytes, dir));
+  const std::string spec = dir + "/" + std::string(300, 'x') + ".vdb";
+  EXPECT_EQ(hapvox::testing::input_error_of([&] { hapvox::engine::io::read_scalar_volume(spec); }),
+            spec + ": cannot open file");
+}
+
 }  // namespace
 
 #endif  // HAPVOX_FUZZ_REPLAY
