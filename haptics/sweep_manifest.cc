@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 
 #include "engine/errors.h"
@@ -293,21 +294,47 @@ std::uint64_t fnv1a_64(std::string_view bytes, std::uint64_t hash) {
   return hash;
 }
 
-std::string sweep_row_id(const SweepRow& row) {
+std::uint64_t SweepFileDigests::of(const std::string& path) {
+  const auto known = digests_.find(path);
+  if (known != digests_.end()) return known->second;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "cannot be read");
+  std::uint64_t hash = fnv1a_64("");
+  std::vector<char> piece(1 << 20);
+  while (in) {
+    in.read(piece.data(), static_cast<std::streamsize>(piece.size()));
+    hash = fnv1a_64(std::string_view(piece.data(), static_cast<std::size_t>(in.gcount())), hash);
+  }
+  if (in.bad()) throw InputError(path, "cannot be read");
+  digests_.emplace(path, hash);
+  return hash;
+}
+
+std::string sweep_row_id(const SweepRow& row, const std::vector<std::string>& volume_files,
+                         SweepFileDigests& digests) {
   // Each part with its name and length, so that no two rows' streams can run together.
-  std::uint64_t hash = fnv1a_64("hapvox sweep row 1\n");
+  std::uint64_t hash = fnv1a_64("hapvox sweep row 2\n");
   auto add = [&hash](const std::string& name, std::string_view bytes) {
     hash = fnv1a_64(name + " " + std::to_string(bytes.size()) + "\n", hash);
     hash = fnv1a_64(bytes, hash);
   };
-  add("trace", engine::read_text_file(row.trace));
-  if (engine::is_generator_spec(row.volume)) {
+  auto add_file = [&](const std::string& name, const std::string& path) {
+    const std::uint64_t digest = digests.of(path);
+    add(name, std::string_view(reinterpret_cast<const char*>(&digest), sizeof digest));
+  };
+  add_file("trace", row.trace);
+  if (volume_files.empty()) {
     add("generator", row.volume);
   } else {
-    add("volume", engine::read_text_file(row.volume));
+    // A raw file's spec ("ct.raw:dims=64,64,32,...") adds options to its path: they count.
+    if (row.volume != volume_files.front()) {
+      const bool prefixed = row.volume.rfind(volume_files.front(), 0) == 0;
+      add("volume options", prefixed ? row.volume.substr(volume_files.front().size()) : row.volume);
+    }
+    for (const std::string& file : volume_files) add_file("volume file", file);
   }
   add("model", row.model);
-  if (!row.materials.empty()) add("materials", engine::read_text_file(row.materials));
+  if (!row.materials.empty()) add_file("materials", row.materials);
   for (const auto& [name, value] : row.options) add("--" + name, value);
   // FNV-1a's last bytes move few bits: a finaliser (splitmix64's) spreads them over all 64,
   // so IDs that differ in one option do not look alike.

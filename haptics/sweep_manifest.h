@@ -21,6 +21,7 @@
 // any folder, and a changed input a new one.
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -58,11 +59,25 @@ SweepManifest parse_sweep_manifest(std::string_view text, const std::string& sou
 /// Reads and parses the manifest at `path` (paths relative to its folder, made absolute).
 SweepManifest read_sweep_manifest(const std::string& path);
 
-/// The row's ID: 16 hex digits of a 64-bit FNV-1a hash (finalised as splitmix64's) over its
-/// trace's, volume's and materials' bytes (a generator: its spec), its model and its
-/// options. Reads the files:
-/// InputError(path, ...) when one cannot be read.
-std::string sweep_row_id(const SweepRow& row);
+/// Digests of the files a sweep's rows read, each file read once however many rows read it
+/// (a thousand rows may share one CT).
+class SweepFileDigests {
+ public:
+  /// 64-bit FNV-1a of the file's bytes (read in pieces). InputError(path, "cannot be read").
+  std::uint64_t of(const std::string& path);
+
+ private:
+  std::map<std::string, std::uint64_t> digests_;
+};
+
+/// The row's ID: 16 hex digits of a 64-bit FNV-1a hash (finalised as splitmix64's) over the
+/// digests of its trace, of its volume's files and of its materials file, its model and its
+/// options. `volume_files` are the files `hapvox replay` reads for the volume: its header
+/// and any data file the header names; none for a generator, whose spec counts instead
+/// (as do a raw file's options after its path). The same bytes under other names give the
+/// same ID. InputError(path, ...) when a file cannot be read.
+std::string sweep_row_id(const SweepRow& row, const std::vector<std::string>& volume_files,
+                         SweepFileDigests& digests);
 
 /// The arguments of the `hapvox replay` that runs `row` into `output` (after the program
 /// name): replay TRACE --volume VOLUME --model MODEL [--materials M] [--FLAG [VALUE]]... -q

@@ -6,8 +6,9 @@
 //   --emit slurm   that job's script, written and not submitted;
 //   --hosts FILE   ssh hosts through GNU parallel (tools/sweep_parallel.h);
 //   --collect DIR  none: the summary of what DIR holds (after a job ran).
-// Each backend's jobs run `hapvox sweep MANIFEST -o DIR -j 1 --task-rows ID,...` (the pool
-// with only those rows, no summary).
+// Each backend's jobs run `hapvox sweep MANIFEST -o DIR -j 1 --task-rows INDEX:ID,...` (the
+// pool with only those rows, no summary). One sweep at a time runs in DIR (DIR/sweep.lock),
+// and none while a Slurm job of DIR still has tasks queued or running.
 //
 // A row is done when DIR/ID.h5 exists (a replay writes ID.h5.partial and renames it only
 // once whole), failed when DIR/ID.failed does; a rerun runs only the rows that are neither
@@ -31,6 +32,7 @@
 
 #include "engine/errors.h"
 #include "tools/cli.h"
+#include "tools/command_exit.h"
 #include "tools/replay_command.h"
 #include "tools/sweep_parallel.h"
 #include "tools/sweep_plan.h"
@@ -67,11 +69,7 @@ std::string last_line(const std::string& log_path) {
   return last;
 }
 
-[[noreturn]] void exit_with(int code) {
-  std::fflush(stdout);
-  std::fflush(stderr);
-  std::_Exit(code);
-}
+[[noreturn]] void exit_with(int code) { throw CommandExit{code}; }
 
 // 100 + the rows that failed (at most 199), or 0.
 int exit_code_for(std::size_t failed) {
@@ -127,69 +125,123 @@ bool run_locally(SweepPlan& plan, int parallel) {
   return !stop.load();
 }
 
-std::vector<std::string> split_ids(const std::string& text) {
-  std::vector<std::string> ids;
-  std::stringstream in(text);
-  for (std::string id; std::getline(in, id, ',');) {
-    if (!id.empty()) ids.push_back(id);
-  }
-  if (ids.empty()) throw InputError("--task-rows", "names no row");
-  return ids;
-}
-
 // After a Slurm job or parallel ended: the summary, rows left not run counted as failed.
-void summarise_ended(const std::string& manifest, const std::string& dir, const char* backend) {
-  SweepPlan plan = plan_sweep(manifest, dir, false);
+[[noreturn]] void summarise_ended(const std::string& manifest, const std::string& dir,
+                                  const std::string& backend) {
+  const SweepPlan plan = plan_sweep(manifest, dir, false);
   const SweepCounts c = summarise_sweep(plan);
   if (c.not_run > 0) {
     std::printf(
         "  not run          %zu rows: %s ended without them (see their ID.log); rerun the "
         "sweep to run them\n",
-        c.not_run, backend);
+        c.not_run, backend.c_str());
   }
   exit_with(exit_code_for(c.failed + c.not_run));
 }
 
-void run_sweep(const SweepFlags& f) {
-  // --collect DIR: the summary of a sweep's directory, nothing run.
-  if (!f.collect.empty()) {
-    if (!f.manifest.empty())
-      throw InputError("--collect", "takes the directory alone, no manifest");
-    const std::string manifest = manifest_of_sweep_dir(f.collect);
-    SweepPlan plan = plan_sweep(manifest, f.collect, false);
-    std::printf("sweep %s: %zu rows in %s (collected)\n", manifest.c_str(),
-                plan.manifest.rows.size(), plan.dir.c_str());
-    const int left = slurm_tasks_left(plan.dir);
-    const SweepCounts c = summarise_sweep(plan);
-    if (left > 0) {
-      std::printf(
-          "  slurm            %d tasks still queued or running: the summary holds the "
-          "rows done so far\n",
-          left);
-      exit_with(exit_code_for(c.failed));
-    }
-    exit_with(exit_code_for(c.failed + c.not_run));
+// "  slurm ..." lines on DIR's last job; its tasks still queued or running.
+int report_slurm_job(const std::string& dir) {
+  const SlurmJobLeft left = slurm_job_left(dir);
+  if (!left.unknown.empty()) {
+    std::printf("  slurm            cannot tell whether the job of %s/slurm.job runs (%s)\n",
+                dir.c_str(), left.unknown.c_str());
+  } else if (left.tasks > 0) {
+    std::printf(
+        "  slurm            job %s: %d tasks still queued or running (the summary holds "
+        "the rows done so far)\n",
+        left.job.text().c_str(), left.tasks);
   }
-  // Everything checked before a row runs or DIR is made.
+  return left.tasks;
+}
+
+// --collect DIR: the summary of what a sweep's directory holds, nothing run. Exit 0 only
+// when every row is done (a job still running has rows not run).
+[[noreturn]] void collect(const std::string& dir) {
+  const std::string manifest = manifest_of_sweep_dir(dir);
+  const SweepPlan plan = plan_sweep(manifest, dir, false);
+  const SweepDirLock lock(plan.dir);
+  std::printf("sweep %s: %zu rows in %s (collected)\n", manifest.c_str(), plan.manifest.rows.size(),
+              plan.dir.c_str());
+  report_slurm_job(plan.dir);
+  const SweepCounts c = summarise_sweep(plan);
+  exit_with(exit_code_for(c.failed + c.not_run));
+}
+
+// Flags that mean nothing without the backend they belong to, or with --collect.
+void check_flag_combinations(const SweepFlags& f, CLI::App& cmd) {
+  auto given = [&](const char* name) { return cmd.count(name) > 0; };
+  if (!f.collect.empty()) {
+    for (const char* name : {"manifest", "--output", "--jobs", "--retry-failed", "--dry-run",
+                             "--slurm", "--emit", "--wait", "--partition", "--time",
+                             "--max-parallel", "--rows-per-task", "--hosts", "--task-rows"}) {
+      if (given(name)) {
+        throw InputError("--collect", std::string("takes the directory alone (not ") +
+                                          (name[0] == '-' ? name : "a manifest") + ")");
+      }
+    }
+    return;
+  }
   if (f.manifest.empty()) throw InputError("sweep", "needs a manifest (or --collect DIR)");
+  if (f.output_dir.empty()) throw InputError("--output", "a directory is required");
   if (f.jobs < 0) throw InputError("-j", "must be at least 1 (0: one per core)");
   if (!f.emit.empty() && f.emit != "slurm") {
     throw InputError("--emit", "'" + f.emit + "' is not a backend (slurm)");
   }
-  const bool slurm = f.slurm || !f.emit.empty();
-  if (f.slurm && !f.emit.empty())
+  if (f.slurm && !f.emit.empty()) {
     throw InputError("--emit", "writes the script instead of --slurm");
-  if (f.wait && !f.slurm) throw InputError("--wait", "needs --slurm");
-  if (!f.hosts.empty() && slurm) throw InputError("--hosts", "cannot be combined with --slurm");
-  if (!f.task_rows.empty() && (slurm || !f.hosts.empty())) {
-    throw InputError("--task-rows", "runs rows here (it is what a Slurm or parallel job runs)");
   }
-  if (!f.hosts.empty()) check_hosts_file(f.hosts);
-  SweepPlan plan = plan_sweep(f.manifest, f.output_dir, f.retry_failed);
-  if (slurm) check_slurm_options(f.slurm_options, plan.dir);
-  if (!f.task_rows.empty()) keep_only(plan, split_ids(f.task_rows), "--task-rows");
+  const bool slurm = f.slurm || !f.emit.empty();
+  if (f.wait && !f.slurm) throw InputError("--wait", "needs --slurm");
+  for (const char* name : {"--partition", "--time", "--max-parallel", "--rows-per-task"}) {
+    if (given(name) && !slurm) throw InputError(name, "needs --slurm or --emit slurm");
+  }
+  if (!f.hosts.empty() && slurm) throw InputError("--hosts", "cannot be combined with --slurm");
+  if (!f.task_rows.empty() && (slurm || !f.hosts.empty() || f.retry_failed || f.dry_run)) {
+    throw InputError("--task-rows",
+                     "runs a job's rows here, alone (what a Slurm or parallel "
+                     "job runs)");
+  }
+}
+
+// A job's task (--task-rows): its rows in the local pool, no summary.
+[[noreturn]] void run_task(const SweepFlags& f, int parallel) {
+  SweepPlan plan = plan_task(f.manifest, f.output_dir, parse_task_rows(f.task_rows));
+  std::printf("sweep %s: %zu rows of a job -> %s (%zu to run, %d at a time)\n", f.manifest.c_str(),
+              plan.to_run.size() + plan.done_before, plan.dir.c_str(), plan.to_run.size(),
+              parallel);
+  const bool finished = run_locally(plan, parallel);
+  std::size_t failed = 0;
+  for (const std::size_t i : plan.to_run) failed += plan.outcomes[i].status == "failed";
+  exit_with(finished ? exit_code_for(failed) : 130);
+}
+
+void run_sweep(const SweepFlags& f, CLI::App& cmd) {
+  check_flag_combinations(f, cmd);
+  if (!f.collect.empty()) collect(f.collect);
   const int parallel =
       f.jobs > 0 ? f.jobs : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  if (!f.task_rows.empty()) run_task(f, parallel);
+  const bool slurm = f.slurm || !f.emit.empty();
+  // Everything checked before a row runs or DIR is made.
+  if (!f.hosts.empty()) check_hosts_run(f.hosts, f.output_dir, f.manifest);
+  SweepPlan plan = plan_sweep(f.manifest, f.output_dir, f.retry_failed);
+  if (slurm) check_slurm_options(f.slurm_options, plan.dir, f.manifest, plan.to_run.size());
+  if (f.slurm) {
+    require_program("sbatch", "--slurm",
+                    "is this a Slurm login node? --emit slurm writes the script alone");
+    require_program("squeue", "--slurm", "is this a Slurm login node?");
+  }
+  if (!f.dry_run) {
+    // A job of DIR still running would run the rows it has not finished a second time.
+    const SlurmJobLeft left = slurm_job_left(plan.dir);
+    if (left.tasks > 0) {
+      throw InputError(plan.dir, "Slurm job " + left.job.text() + " still has " +
+                                     std::to_string(left.tasks) +
+                                     " tasks queued or running (wait for it, or scancel " +
+                                     left.job.id + "; hapvox sweep --collect DIR gathers it)");
+    }
+  }
+  const SweepDirLock lock(plan.dir);
   const char* where = slurm              ? "as a Slurm job array"
                       : !f.hosts.empty() ? "over ssh hosts with GNU parallel"
                                          : nullptr;
@@ -202,7 +254,7 @@ void run_sweep(const SweepFlags& f) {
   }
   std::printf("; %zu done before, %zu failed before%s)\n", plan.done_before, plan.failed_before,
               plan.failed_before > 0 ? ": --retry-failed runs them" : "");
-  if (f.task_rows.empty()) write_row_commands(plan);  // a job's task: written at submission
+  write_row_commands(plan);
   if (f.dry_run) {
     for (const std::size_t i : plan.to_run) {
       std::printf("  %s\n", shell_command(haptics::sweep_replay_arguments(plan.manifest.rows[i],
@@ -211,6 +263,8 @@ void run_sweep(const SweepFlags& f) {
     }
     return;
   }
+  end_session_on_signals();  // Ctrl-C or SIGTERM: the rows stop, the summary is written
+  const std::atomic<bool>& stop = *stop_request();
 
   if (slurm) {
     if (plan.to_run.empty()) {
@@ -220,49 +274,46 @@ void run_sweep(const SweepFlags& f) {
     const std::string script = write_slurm_script(plan, f.slurm_options);
     if (!f.emit.empty()) {
       std::printf(
-          "  slurm            %s (submit it with: sbatch %s; then: hapvox sweep --collect "
-          "%s)\n",
+          "  slurm            %s (submit it with: sbatch %s; then: hapvox sweep "
+          "--collect %s)\n",
           script.c_str(), script.c_str(), plan.dir.c_str());
       return;
     }
-    const std::string job = submit_slurm_script(script, plan.dir);
+    const SlurmJob job = submit_slurm_script(script, plan.dir);
     std::printf("  slurm            job %s submitted (%s; its tasks' output in %s/slurm/)\n",
-                job.c_str(), script.c_str(), plan.dir.c_str());
+                job.text().c_str(), script.c_str(), plan.dir.c_str());
     if (!f.wait) {
       std::printf("  collect          hapvox sweep --collect %s (once it has run)\n",
                   plan.dir.c_str());
       return;
     }
     std::fflush(stdout);
-    end_session_on_signals();
-    if (!wait_for_slurm_job(job, plan, *stop_request())) {
+    if (!wait_for_slurm_job(job, plan, stop)) {
       std::printf(
           "  slurm            interrupted: job %s runs on (scancel %s stops it; hapvox "
           "sweep --collect %s gathers it)\n",
-          job.c_str(), job.c_str(), plan.dir.c_str());
+          job.text().c_str(), job.id.c_str(), plan.dir.c_str());
       exit_with(130);
     }
-    summarise_ended(f.manifest, f.output_dir, ("Slurm job " + job).c_str());
+    summarise_ended(f.manifest, f.output_dir, "Slurm job " + job.text());
   }
   if (!f.hosts.empty()) {
     std::fflush(stdout);
-    const int status = plan.to_run.empty() ? 0 : run_over_hosts(plan, f.hosts);
-    std::printf("  parallel         exit %d (its job log: %s/parallel.log)\n", status,
-                plan.dir.c_str());
+    const int status = plan.to_run.empty() ? 0 : run_over_hosts(plan, f.hosts, stop);
+    std::printf(
+        "  parallel         exit %d (its job log: %s/parallel.log, its output: "
+        "%s/parallel.out)\n",
+        status, plan.dir.c_str(), plan.dir.c_str());
+    if (stop.load()) {
+      summarise_sweep(plan_sweep(f.manifest, f.output_dir, false));
+      exit_with(130);
+    }
     summarise_ended(f.manifest, f.output_dir, "GNU parallel");
   }
 
   const bool finished = run_locally(plan, parallel);
-  if (!f.task_rows.empty()) {
-    // A Slurm or parallel job's rows: whoever follows the job writes the summary.
-    std::size_t failed = 0;
-    for (const std::size_t i : plan.to_run) failed += plan.outcomes[i].status == "failed";
-    if (!finished) exit_with(130);
-    exit_with(exit_code_for(failed));
-  }
   const SweepCounts c = summarise_sweep(plan);
-  if (!finished) exit_with(130);
-  exit_with(exit_code_for(c.failed));
+  exit_with(finished ? exit_code_for(c.failed) : 130);
 }
 
 }  // namespace
@@ -303,14 +354,9 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--collect", flags->collect,
                   "Write the summary of a sweep's directory (after a Slurm job), run nothing");
   cmd->add_option("--task-rows", flags->task_rows,
-                  "Run only these rows (IDs, comma-separated) and write no summary: what each "
-                  "Slurm or parallel job runs");
-  cmd->callback([flags] {
-    if (flags->collect.empty() && flags->output_dir.empty()) {
-      throw InputError("--output", "a directory is required");
-    }
-    run_sweep(*flags);
-  });
+                  "Run only these rows (INDEX:ID, comma-separated) and write no summary: what "
+                  "each Slurm or parallel job runs");
+  cmd->callback([flags, cmd] { run_sweep(*flags, *cmd); });
 }
 
 }  // namespace hapvox::cli

@@ -13,6 +13,7 @@
 #include "haptics/session.h"
 #include "render/gl_context.h"
 #include "tools/cli.h"
+#include "tools/command_exit.h"
 
 namespace hapvox::cli {
 void add_render_command(CLI::App& app);          // tools/cmd_render.cc
@@ -114,6 +115,8 @@ int main(int argc, char** argv) {
   } catch (const hapvox::cli::TimingBudgetBroken& e) {
     print_diagnostic("check-timing", e.what());
     return 3;
+  } catch (const hapvox::cli::CommandExit& e) {
+    return e.status;
   } catch (const hapvox::cli::ValidationFailed& e) {
     std::fprintf(stderr, "hapvox: validate: %s\n", e.what());
     return 3;

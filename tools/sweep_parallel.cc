@@ -1,18 +1,60 @@
 #include "tools/sweep_parallel.h"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <thread>
+#include <utility>
 
 #include "engine/errors.h"
 #include "tools/cli.h"
 #include "tools/sweep_slurm.h"
 
 namespace hapvox::cli {
+namespace {
 
 namespace fs = std::filesystem;
 
-void check_hosts_file(const std::string& hosts_file) {
+// `/bin/sh -c command` with its output appended to `output_path`, waited for; SIGTERM once
+// `stop` is set. Its exit status, or 128 + the signal that ended it.
+int run_until_stopped(const std::string& command, const std::string& output_path,
+                      const std::atomic<bool>& stop) {
+  const int out = ::open(output_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out < 0) throw InputError(output_path, "cannot be written");
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    ::close(out);
+    throw InputError("--hosts", "cannot start GNU parallel (fork failed)");
+  }
+  if (pid == 0) {
+    ::dup2(out, STDOUT_FILENO);
+    ::dup2(out, STDERR_FILENO);
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(out);
+  bool signalled = false;
+  int status = 0;
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (stop.load() && !signalled) {
+      ::kill(pid, SIGTERM);
+      signalled = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+}  // namespace
+
+void check_hosts_run(const std::string& hosts_file, const std::string& dir,
+                     const std::string& manifest_path) {
   std::ifstream in(hosts_file);
   if (!fs::is_regular_file(hosts_file) || !in) throw InputError(hosts_file, "cannot be read");
   int hosts = 0, line_number = 0;
@@ -27,33 +69,39 @@ void check_hosts_file(const std::string& hosts_file) {
     }
     ++hosts;
   }
-  if (hosts == 0)
+  if (hosts == 0) {
     throw InputError(hosts_file, "names no host (one [N/]host per line; ':' for this machine)");
+  }
+  // parallel replaces {}, {1}, {#}, {/} ... anywhere in the command it runs.
+  const std::pair<std::string, const char*> paths[] = {{dir, "--output"},
+                                                       {manifest_path, "manifest"}};
+  for (const auto& [path, flag] : paths) {
+    if (path.find_first_of("{}") != std::string::npos) {
+      throw InputError(flag, "'" + path + "' holds a brace, which GNU parallel would replace");
+    }
+  }
+  require_program("parallel", "--hosts", "Debian: apt-get install parallel");
 }
 
-int run_over_hosts(const SweepPlan& plan, const std::string& hosts_file) {
-  if (run_shell("parallel --version").exit_code != 0) {
-    throw InputError("--hosts",
-                     "GNU parallel is not on this machine's PATH (Debian: apt-get "
-                     "install parallel)");
-  }
+int run_over_hosts(const SweepPlan& plan, const std::string& hosts_file,
+                   const std::atomic<bool>& stop) {
   const std::string rows = plan.dir + "/parallel.rows";
   {
     std::ofstream out(rows);
-    for (const std::size_t i : plan.to_run) out << plan.ids[i] << "\n";
+    for (std::size_t k = 0; k < plan.to_run.size(); ++k) {
+      out << task_rows_text(plan, k, k + 1) << "\n";
+    }
     if (!out.flush()) throw InputError(rows, "cannot be written");
   }
   const std::string manifest = fs::absolute(plan.manifest.source).lexically_normal().string();
-  // The command each job runs on its host, {} replaced by the row's ID.
+  // The command each job runs on its host, {} replaced by the row's INDEX:ID.
   const std::string job = "hapvox sweep " + shell_quoted(manifest) + " -o " +
                           shell_quoted(plan.dir) + " -j 1 --task-rows {}";
-  const std::string command = "parallel --will-cite --sshloginfile " +
+  const std::string command = "exec parallel --will-cite --sshloginfile " +
                               shell_quoted(fs::absolute(hosts_file).string()) + " --arg-file " +
                               shell_quoted(rows) + " --joblog " +
                               shell_quoted(plan.dir + "/parallel.log") + " " + shell_quoted(job);
-  const ShellResult r = run_shell(command);
-  std::ofstream(plan.dir + "/parallel.out") << r.output;
-  return r.exit_code;
+  return run_until_stopped(command, plan.dir + "/parallel.out", stop);
 }
 
 }  // namespace hapvox::cli

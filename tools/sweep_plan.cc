@@ -1,14 +1,20 @@
 #include "tools/sweep_plan.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <set>
+#include <sstream>
 
 #include "engine/errors.h"
 #include "engine/text_file.h"
+#include "engine/volume_io.h"
 #include "tools/cli.h"
 #include "tools/replay_command.h"
 
@@ -30,7 +36,11 @@ void check_row(const haptics::SweepManifest& m, const haptics::SweepRow& row) {
     }
   };
   exists(row.trace, "trace");
-  for (const InputPath& input : volume_inputs(row.volume)) exists(input.path, "volume");
+  const std::vector<InputPath> volume = volume_inputs(row.volume);
+  if (volume.empty() && !engine::is_generator_spec(row.volume)) {
+    throw InputError(at_line(m, row), "volume '" + row.volume + "' is not a file or a generator");
+  }
+  for (const InputPath& input : volume) exists(input.path, "volume");
   if (!row.materials.empty()) exists(row.materials, "materials");
   // The replay's own parser on the row's arguments: unknown flags and values of the wrong
   // type are the manifest's mistakes.
@@ -74,25 +84,48 @@ std::string SweepPlan::file(std::size_t i, const char* ext) const {
 
 std::string SweepPlan::at(std::size_t i) const { return at_line(manifest, manifest.rows[i]); }
 
-SweepPlan plan_sweep(const std::string& manifest_path, const std::string& output_dir,
-                     bool retry_failed) {
+namespace {
+
+// The manifest read and DIR made absolute; no row checked yet.
+SweepPlan start_plan(const std::string& manifest_path, const std::string& output_dir) {
   if (output_dir.empty()) throw InputError("--output", "a directory is required");
   if (fs::exists(output_dir) && !fs::is_directory(output_dir)) {
     throw InputError(output_dir, "exists and is not a directory");
   }
   SweepPlan plan;
   plan.manifest = haptics::read_sweep_manifest(manifest_path);
+  plan.dir = fs::absolute(output_dir).lexically_normal().string();
+  while (plan.dir.size() > 1 && plan.dir.back() == '/') plan.dir.pop_back();
+  plan.ids.resize(plan.manifest.rows.size());
+  plan.outcomes.resize(plan.manifest.rows.size());
+  return plan;
+}
+
+// Row `i` checked, and its ID.
+std::string checked_row_id(const SweepPlan& plan, std::size_t i,
+                           haptics::SweepFileDigests& digests) {
+  const haptics::SweepRow& row = plan.manifest.rows[i];
+  check_row(plan.manifest, row);
+  std::vector<std::string> volume_files;
+  for (const InputPath& input : volume_inputs(row.volume)) volume_files.push_back(input.path);
+  return haptics::sweep_row_id(row, volume_files, digests);
+}
+
+}  // namespace
+
+SweepPlan plan_sweep(const std::string& manifest_path, const std::string& output_dir,
+                     bool retry_failed) {
+  SweepPlan plan = start_plan(manifest_path, output_dir);
   const haptics::SweepManifest& manifest = plan.manifest;
   std::map<std::string, std::size_t> first_with_id;
+  haptics::SweepFileDigests digests;  // each file read once
   for (std::size_t i = 0; i < manifest.rows.size(); ++i) {
-    const haptics::SweepRow& row = manifest.rows[i];
-    check_row(manifest, row);
-    plan.ids.push_back(haptics::sweep_row_id(row));
-    const auto [it, inserted] = first_with_id.emplace(plan.ids.back(), i);
+    plan.ids[i] = checked_row_id(plan, i, digests);
+    const auto [it, inserted] = first_with_id.emplace(plan.ids[i], i);
     if (!inserted) {
-      throw InputError(at_line(manifest, row),
-                       "the same replay as row " + std::to_string(it->second + 1) + " (line " +
-                           std::to_string(manifest.rows[it->second].line) + ")");
+      throw InputError(plan.at(i), "the same replay as row " + std::to_string(it->second + 1) +
+                                       " (line " + std::to_string(manifest.rows[it->second].line) +
+                                       ")");
     }
   }
   // The summaries may not land on an input (a row's trace named summary.csv in DIR).
@@ -105,9 +138,6 @@ SweepPlan plan_sweep(const std::string& manifest_path, const std::string& output
   check_outputs_spare_inputs({{(fs::path(output_dir) / "summary.csv").string(), "--output", ""},
                               {(fs::path(output_dir) / "summary.h5").string(), "--output", ""}},
                              inputs);
-  plan.dir = fs::absolute(output_dir).lexically_normal().string();
-  while (plan.dir.size() > 1 && plan.dir.back() == '/') plan.dir.pop_back();
-  plan.outcomes.resize(manifest.rows.size());
   for (std::size_t i = 0; i < manifest.rows.size(); ++i) {
     read_outcome(plan, i, retry_failed);
     const std::string& status = plan.outcomes[i].status;
@@ -122,24 +152,78 @@ SweepPlan plan_sweep(const std::string& manifest_path, const std::string& output
   return plan;
 }
 
-void keep_only(SweepPlan& plan, const std::vector<std::string>& ids, const std::string& source) {
-  const std::set<std::string> wanted(ids.begin(), ids.end());
-  std::set<std::string> found;
-  plan.to_run.clear();
-  for (std::size_t i = 0; i < plan.ids.size(); ++i) {
-    if (wanted.count(plan.ids[i]) == 0) continue;
-    found.insert(plan.ids[i]);
-    if (plan.outcomes[i].status == "done") continue;
-    if (plan.outcomes[i].status == "failed") --plan.failed_before;
-    read_outcome(plan, i, /*retry_failed=*/true);
-    plan.to_run.push_back(i);
+std::vector<TaskRow> parse_task_rows(const std::string& text) {
+  std::vector<TaskRow> rows;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');) {
+    const std::size_t colon = item.find(':');
+    TaskRow row;
+    const char* end = item.data() + (colon == std::string::npos ? 0 : colon);
+    const auto [ptr, error] = std::from_chars(item.data(), end, row.index);
+    if (colon == std::string::npos || colon == 0 || error != std::errc() || ptr != end ||
+        item.size() != colon + 17 ||
+        item.find_first_not_of("0123456789abcdef", colon + 1) != std::string::npos) {
+      throw InputError("--task-rows", "'" + item + "' is not INDEX:ID (a row of the job script)");
+    }
+    row.id = item.substr(colon + 1);
+    rows.push_back(row);
   }
-  for (const std::string& id : wanted) {
-    if (found.count(id) == 0) {
-      throw InputError(source, "row " + id + " is not in " + plan.manifest.source +
-                                   " (was the manifest or one of its files changed since?)");
+  if (rows.empty()) throw InputError("--task-rows", "names no row");
+  return rows;
+}
+
+std::string task_rows_text(const SweepPlan& plan, std::size_t from, std::size_t to) {
+  std::string text;
+  for (std::size_t k = from; k < to; ++k) {
+    const std::size_t i = plan.to_run[k];
+    text += (k > from ? "," : "") + std::to_string(i) + ":" + plan.ids[i];
+  }
+  return text;
+}
+
+SweepPlan plan_task(const std::string& manifest_path, const std::string& output_dir,
+                    const std::vector<TaskRow>& rows) {
+  SweepPlan plan = start_plan(manifest_path, output_dir);
+  haptics::SweepFileDigests digests;
+  for (const TaskRow& task_row : rows) {
+    if (task_row.index >= plan.manifest.rows.size()) {
+      throw InputError("--task-rows", "row " + std::to_string(task_row.index) + " is not in " +
+                                          plan.manifest.source + " (it has " +
+                                          std::to_string(plan.manifest.rows.size()) + " rows)");
+    }
+    const std::string id = checked_row_id(plan, task_row.index, digests);
+    if (id != task_row.id) {
+      throw InputError("--task-rows", "row " + std::to_string(task_row.index) + " (" +
+                                          plan.at(task_row.index) + ") is " + id + ", not " +
+                                          task_row.id +
+                                          ": the manifest or one of its files changed since "
+                                          "the job was written");
+    }
+    plan.ids[task_row.index] = id;
+    read_outcome(plan, task_row.index, /*retry_failed=*/true);
+    if (plan.outcomes[task_row.index].status == "done") {
+      ++plan.done_before;
+    } else {
+      plan.to_run.push_back(task_row.index);
     }
   }
+  return plan;
+}
+
+SweepDirLock::SweepDirLock(const std::string& dir) {
+  fs::create_directories(dir);
+  const std::string path = dir + "/sweep.lock";
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw InputError(path, "cannot be opened");
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    throw InputError(dir, "another hapvox sweep is running in it (it holds sweep.lock)");
+  }
+}
+
+SweepDirLock::~SweepDirLock() {
+  if (fd_ >= 0) ::close(fd_);  // the lock goes with the descriptor
 }
 
 void write_row_commands(const SweepPlan& plan) {

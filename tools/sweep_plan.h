@@ -35,11 +35,39 @@ struct SweepPlan {
 SweepPlan plan_sweep(const std::string& manifest_path, const std::string& output_dir,
                      bool retry_failed);
 
-/// Narrows the rows to run to those whose IDs are listed (what a Slurm array task or a GNU
-/// parallel job runs; a listed row that failed before runs again, a done one does not).
-/// InputError(source, ...) for an ID the manifest has no row for (the manifest changed
-/// since the job was written).
-void keep_only(SweepPlan& plan, const std::vector<std::string>& ids, const std::string& source);
+/// One row of a job's task (`--task-rows INDEX:ID,...`): its index in the manifest and the
+/// ID it had when the job was written.
+struct TaskRow {
+  std::size_t index = 0;
+  std::string id;
+};
+
+/// Parses `--task-rows` ("INDEX:ID,INDEX:ID,..."). InputError("--task-rows", ...).
+std::vector<TaskRow> parse_task_rows(const std::string& text);
+
+/// `--task-rows`' text for the plan's rows to run from `from` to `to` (exclusive).
+std::string task_rows_text(const SweepPlan& plan, std::size_t from, std::size_t to);
+
+/// The plan of a job's task: only `rows` are checked and hashed (a task reads only its own
+/// rows' files, which its replays read anyway), and those not done are to run (a failed one
+/// again: the job was written to run it). InputError("--task-rows", ...) when a row is not
+/// in the manifest or its ID changed (the manifest or one of its files changed since the
+/// job was written).
+SweepPlan plan_task(const std::string& manifest_path, const std::string& output_dir,
+                    const std::vector<TaskRow>& rows);
+
+/// Holds DIR/sweep.lock (flock) while one sweep runs, submits or summarises in DIR, so that
+/// two cannot run the same rows at once. InputError(DIR, ...) when another holds it.
+class SweepDirLock {
+ public:
+  explicit SweepDirLock(const std::string& dir);
+  ~SweepDirLock();
+  SweepDirLock(const SweepDirLock&) = delete;
+  SweepDirLock& operator=(const SweepDirLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
 
 /// Writes DIR/ID.cmd for each row to run (`cd DIR && hapvox replay ...`: a row's replay by
 /// hand) and DIR/sweep.manifest (the manifest's path, for `--collect DIR`).

@@ -25,10 +25,26 @@ def column(f, name):
     return values
 
 
-def stiffness_label(materials, youngs_pa):
+def stiffness_of(materials, youngs_pa):
+    """A row's stiffness as a sort key: the command line's E first (by value), then each
+    materials file (by path)."""
     if materials:
-        return os.path.basename(materials)
-    return "E %g kPa" % (youngs_pa / 1e3)
+        return (1, 0.0, materials)
+    return (0, float(youngs_pa), "")
+
+
+def labels_of(stiffnesses):
+    """A label per stiffness: "E 100 kPa", or a materials file's name (its whole path where
+    two files share a name)."""
+    names = [os.path.basename(s[2]) for s in stiffnesses if s[0] == 1]
+    labels = {}
+    for s in stiffnesses:
+        if s[0] == 0:
+            labels[s] = "E %g kPa" % (s[1] / 1e3)
+        else:
+            base = os.path.basename(s[2])
+            labels[s] = base if names.count(base) == 1 else s[2]
+    return labels
 
 
 def main():
@@ -42,11 +58,13 @@ def main():
     done = [i for i, s in enumerate(status) if s == "done" and np.isfinite(peak_n[i])]
     if not done:
         sys.exit("hapvox report: %s: no row of the sweep is done" % summary)
-    stiffness = {i: stiffness_label(materials[i], youngs_pa[i]) for i in done}
-    # Stiffnesses in order of E, materials files after, by name.
-    order = sorted(set(stiffness.values()),
-                   key=lambda s: (s.endswith(".toml") or not s.startswith("E "),
-                                  float(s.split()[1]) if s.startswith("E ") else 0.0, s))
+    done = [i for i in done if np.isfinite(tool_mm[i]) and
+            (materials[i] or np.isfinite(youngs_pa[i]))]
+    if not done:
+        sys.exit("hapvox report: %s: no done row has a tool size and a stiffness" % summary)
+    stiffness = {i: stiffness_of(materials[i], youngs_pa[i]) for i in done}
+    order = sorted(set(stiffness.values()))
+    label = labels_of(order)
     tools = sorted(set(tool_mm[i] for i in done))
 
     fig, (by_tool, by_stiffness) = plt.subplots(1, 2, figsize=(11, 4.2))
@@ -57,7 +75,7 @@ def main():
                      alpha=0.3, ms=4)
         xs = sorted(set(tool_mm[i] for i in rows))
         medians = [np.median([peak_n[i] for i in rows if tool_mm[i] == x]) for x in xs]
-        by_tool.plot(xs, medians, "-o", color=colour, label=name)
+        by_tool.plot(xs, medians, "-o", color=colour, label=label[name])
     by_tool.set_xlabel("tool diameter (mm)")
     by_tool.set_ylabel("peak force (N)")
     by_tool.set_title("peak force against tool size")
@@ -74,7 +92,7 @@ def main():
                    for x in xs]
         by_stiffness.plot(xs, medians, "-o", color=colour, label="tool %g mm" % tool)
     by_stiffness.set_xticks(range(len(order)))
-    by_stiffness.set_xticklabels(order, rotation=15, fontsize=8)
+    by_stiffness.set_xticklabels([label[s] for s in order], rotation=15, fontsize=8)
     by_stiffness.set_xlabel("stiffness (Young's modulus, or materials file)")
     by_stiffness.set_ylabel("peak force (N)")
     by_stiffness.set_title("peak force against stiffness")

@@ -22,7 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // Slurm's own limit on array indices (MaxArraySize's default, 1001: indices 0..1000).
-constexpr std::size_t kMaxArrayTasks = 1000;
+constexpr std::size_t kMaxArrayTasks = 1001;
 constexpr int kDefaultRowsPerTask = 4;
 
 int rows_per_task(const SlurmOptions& options, std::size_t rows) {
@@ -45,6 +45,16 @@ std::string one_line(const std::string& output) {
   return line.empty() ? "(no output)" : line;
 }
 
+// "ID" or "ID;CLUSTER" (sbatch --parsable's answer, and DIR/slurm.job's text).
+bool parse_job(const std::string& text, SlurmJob* job) {
+  const std::string line = trimmed(text);
+  const std::size_t semicolon = line.find(';');
+  job->id = line.substr(0, semicolon);
+  job->cluster = semicolon == std::string::npos ? "" : line.substr(semicolon + 1);
+  return !job->id.empty() && job->id.find_first_not_of("0123456789") == std::string::npos &&
+         std::regex_match(job->cluster, std::regex("[A-Za-z0-9_.-]*"));
+}
+
 }  // namespace
 
 ShellResult run_shell(const std::string& command) {
@@ -62,7 +72,14 @@ ShellResult run_shell(const std::string& command) {
   return result;
 }
 
-void check_slurm_options(const SlurmOptions& options, const std::string& dir) {
+void require_program(const std::string& program, const std::string& flag, const std::string& hint) {
+  if (run_shell("command -v " + shell_quoted(program)).exit_code != 0) {
+    throw InputError(flag, program + " is not on this machine's PATH (" + hint + ")");
+  }
+}
+
+void check_slurm_options(const SlurmOptions& options, const std::string& dir,
+                         const std::string& manifest_path, std::size_t rows) {
   // Only what sbatch takes as one word on an #SBATCH line.
   if (!std::regex_match(options.partition, std::regex("[A-Za-z0-9_.,-]*"))) {
     throw InputError("--partition", "'" + options.partition + "' is not a partition name");
@@ -74,12 +91,24 @@ void check_slurm_options(const SlurmOptions& options, const std::string& dir) {
                                    "DAYS-H:MM:SS)");
   }
   if (options.max_parallel < 0) throw InputError("--max-parallel", "must be 0 (no limit) or more");
-  if (options.rows_per_task < 0)
+  if (options.rows_per_task < 0) {
     throw InputError("--rows-per-task", "must be 0 (automatic) or more");
-  if (dir.find_first_of(" \t\n'\"\\$`") != std::string::npos) {
+  }
+  // Slurm expands %A, %a, %j ... in --output's path; #SBATCH lines take one plain word.
+  if (dir.find_first_of(" \t\r\n'\"\\$`%") != std::string::npos) {
     throw InputError("--output",
-                     "a Slurm sweep's directory may not hold spaces, quotes, '\\', "
-                     "'$' or '`' (#SBATCH lines take one plain word)");
+                     "a Slurm sweep's directory may not hold spaces, quotes, '\\', '$', '`' or "
+                     "'%' (#SBATCH lines take one plain word)");
+  }
+  if (manifest_path.find_first_of("\r\n") != std::string::npos) {
+    throw InputError(manifest_path, "a manifest's path with a line break cannot go in a script");
+  }
+  const int per_task = rows_per_task(options, rows);
+  const std::size_t tasks = (rows + per_task - 1) / per_task;
+  if (tasks > kMaxArrayTasks) {
+    throw InputError("--rows-per-task",
+                     std::to_string(per_task) + " rows per task make " + std::to_string(tasks) +
+                         " array tasks; Slurm takes at most " + std::to_string(kMaxArrayTasks));
   }
 }
 
@@ -87,26 +116,23 @@ std::string write_slurm_script(const SweepPlan& plan, const SlurmOptions& option
   const std::size_t rows = plan.to_run.size();
   const int per_task = rows_per_task(options, rows);
   const std::size_t tasks = (rows + per_task - 1) / per_task;
-  if (tasks > kMaxArrayTasks + 1) {
-    throw InputError("--rows-per-task",
-                     std::to_string(per_task) + " rows per task make " + std::to_string(tasks) +
-                         " array tasks; Slurm takes at most " + std::to_string(kMaxArrayTasks + 1));
-  }
   const std::string manifest = fs::absolute(plan.manifest.source).lexically_normal().string();
   fs::create_directories(plan.dir + "/slurm");
+  fs::remove(plan.dir + "/slurm.job");  // this job's ID goes there, once it has one
   const std::string path = plan.dir + "/sweep.sbatch";
   const std::string partial = path + ".partial";
   {
     std::ofstream out(partial);
     out << "#!/bin/bash\n"
-        << "# " << plan.manifest.source
-        << " as a Slurm job array, written by hapvox sweep: " << rows << " rows in " << tasks
-        << " tasks of up to " << per_task << ".\n"
-        << "# Task K runs the rows on line K of `rows` with `hapvox sweep --task-rows`; each\n"
-        << "# row's session is " << plan.dir << "/ID.h5, its output ID.log.\n"
-        << "# Assumes only that " << plan.dir << ", the manifest and its traces, volumes\n"
-        << "# and materials lie on a filesystem every node shares, and that `hapvox` is on the\n"
-        << "# nodes' PATH (sbatch passes on the submitting shell's environment by default).\n"
+        << "# " << manifest << " as a Slurm job array, written by hapvox sweep: " << rows
+        << " rows in " << tasks << (tasks == 1 ? " task" : " tasks") << " of up to " << per_task
+        << ".\n"
+        << "# Task K runs the rows on line K of `rows` (INDEX:ID: the manifest's row and its\n"
+        << "# ID) with `hapvox sweep --task-rows`; each row's session is DIR/ID.h5, its output\n"
+        << "# ID.log. Assumes only that DIR (" << plan.dir << "), the manifest and\n"
+        << "# its traces, volumes and materials lie on a filesystem every node shares, and\n"
+        << "# that `hapvox` is on the nodes' PATH (sbatch passes on the submitting shell's\n"
+        << "# environment by default).\n"
         << "# Submit: sbatch " << path << "; then: hapvox sweep --collect " << plan.dir << "\n"
         << "#SBATCH --job-name=hapvox-sweep\n"
         << "#SBATCH --array=0-" << tasks - 1
@@ -117,16 +143,19 @@ std::string write_slurm_script(const SweepPlan& plan, const SlurmOptions& option
         << "#SBATCH --cpus-per-task=1\n";
     if (!options.partition.empty()) out << "#SBATCH --partition=" << options.partition << "\n";
     if (!options.time.empty()) out << "#SBATCH --time=" << options.time << "\n";
-    out << "set -eu\nrows=(\n";
+    out << "set -eu\n"
+        << "rows=(\n";
     for (std::size_t t = 0; t < tasks; ++t) {
-      out << "  ";
-      for (std::size_t k = t * per_task; k < std::min(rows, (t + 1) * per_task); ++k) {
-        out << (k > t * per_task ? "," : "") << plan.ids[plan.to_run[k]];
-      }
-      out << "\n";
+      out << "  " << task_rows_text(plan, t * per_task, std::min(rows, (t + 1) * per_task)) << "\n";
     }
+    const std::string dir = shell_quoted(plan.dir);
     out << ")\n"
-        << "exec hapvox sweep " << shell_quoted(manifest) << " -o " << shell_quoted(plan.dir)
+        << "# The job's ID, for `hapvox sweep --collect` (a job submitted by hand).\n"
+        << "if [ -n \"${SLURM_ARRAY_JOB_ID:-}\" ]; then\n"
+        << "  echo \"$SLURM_ARRAY_JOB_ID\" > " << dir << "/slurm/job.$SLURM_ARRAY_TASK_ID\n"
+        << "  mv -f " << dir << "/slurm/job.$SLURM_ARRAY_TASK_ID " << dir << "/slurm.job\n"
+        << "fi\n"
+        << "exec hapvox sweep " << shell_quoted(manifest) << " -o " << dir
         << " -j 1 --task-rows \"${rows[$SLURM_ARRAY_TASK_ID]}\"\n";
     if (!out.flush()) throw InputError(path, "cannot be written");
   }
@@ -134,38 +163,35 @@ std::string write_slurm_script(const SweepPlan& plan, const SlurmOptions& option
   return path;
 }
 
-std::string submit_slurm_script(const std::string& script, const std::string& dir) {
+SlurmJob submit_slurm_script(const std::string& script, const std::string& dir) {
   const ShellResult r = run_shell("sbatch --parsable " + shell_quoted(script));
-  if (r.exit_code == 127) {
-    throw InputError("--slurm",
-                     "sbatch is not on this machine's PATH (is this a Slurm login "
-                     "node? --emit slurm writes the script alone)");
-  }
-  if (r.exit_code != 0)
+  if (r.exit_code != 0) {
     throw InputError("--slurm", "sbatch refused the job: " + one_line(r.output));
+  }
   // --parsable: "ID" or "ID;CLUSTER" on the last line (warnings come before it).
   std::string last = trimmed(r.output);
   if (const std::size_t nl = last.rfind('\n'); nl != std::string::npos) last = last.substr(nl + 1);
-  const std::string id = last.substr(0, last.find(';'));
-  if (id.empty() || id.find_first_not_of("0123456789") != std::string::npos) {
+  SlurmJob job;
+  if (!parse_job(last, &job)) {
     throw InputError("--slurm", "sbatch answered no job ID: " + one_line(r.output));
   }
-  std::ofstream(dir + "/slurm.job") << id << "\n";
-  return id;
+  std::ofstream(dir + "/slurm.job") << last << "\n";
+  return job;
 }
 
 namespace {
 
-// The job's tasks squeue still lists (queued or running), or -1 when squeue failed.
+// The job's tasks squeue still lists (queued or running).
 struct JobState {
   int pending = 0, running = 0;
   bool squeue_failed = false;
   std::string error;
 };
 
-JobState job_state(const std::string& job_id) {
+JobState job_state(const SlurmJob& job) {
   JobState s;
-  const ShellResult r = run_shell("squeue --noheader --array --jobs " + job_id + " --format=%T");
+  const ShellResult r = run_shell("squeue --noheader --array --jobs " + job.id + " --format=%T" +
+                                  (job.cluster.empty() ? "" : " --clusters " + job.cluster));
   if (r.exit_code != 0) {
     // A job squeue no longer knows (ended longer ago than MinJobAge) is over.
     if (r.output.find("Invalid job id") != std::string::npos) return s;
@@ -176,10 +202,11 @@ JobState job_state(const std::string& job_id) {
   std::istringstream lines(r.output);
   for (std::string line; std::getline(lines, line);) {
     line = trimmed(line);
-    if (line == "PENDING" || line == "REQUEUED" || line == "RESV_DEL_HOLD") {
+    if (line.rfind("CLUSTER:", 0) == 0) continue;  // --clusters' heading
+    if (line == "PENDING" || line == "REQUEUED" || line == "REQUEUE_HOLD") {
       ++s.pending;
     } else if (!line.empty()) {
-      ++s.running;  // RUNNING, CONFIGURING, COMPLETING, SUSPENDED: not over
+      ++s.running;  // RUNNING, CONFIGURING, COMPLETING, SUSPENDED, ...: not over
     }
   }
   return s;
@@ -187,17 +214,16 @@ JobState job_state(const std::string& job_id) {
 
 }  // namespace
 
-bool wait_for_slurm_job(const std::string& job_id, const SweepPlan& plan,
-                        const std::atomic<bool>& stop) {
+bool wait_for_slurm_job(const SlurmJob& job, const SweepPlan& plan, const std::atomic<bool>& stop) {
   const bool tty = isatty(STDERR_FILENO) != 0;
-  const auto started = std::chrono::steady_clock::now();
-  auto last_answer = started;
+  auto last_answer = std::chrono::steady_clock::now();
   while (!stop.load()) {
-    const JobState s = job_state(job_id);
+    const JobState s = job_state(job);
     const auto now = std::chrono::steady_clock::now();
     if (s.squeue_failed) {
       if (now - last_answer > std::chrono::seconds(60)) {
-        throw InputError("squeue", "failed for a minute following job " + job_id + ": " + s.error);
+        throw InputError("squeue",
+                         "failed for a minute following job " + job.text() + ": " + s.error);
       }
     } else {
       last_answer = now;
@@ -212,7 +238,8 @@ bool wait_for_slurm_job(const std::string& job_id, const SweepPlan& plan,
       std::fprintf(stderr,
                    "\rsweep: Slurm job %s: %zu/%zu rows run, %zu failed; %d tasks running, %d "
                    "queued   ",
-                   job_id.c_str(), done + failed, plan.to_run.size(), failed, s.running, s.pending);
+                   job.text().c_str(), done + failed, plan.to_run.size(), failed, s.running,
+                   s.pending);
     }
     for (int k = 0; k < 20 && !stop.load(); ++k) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -222,13 +249,22 @@ bool wait_for_slurm_job(const std::string& job_id, const SweepPlan& plan,
   return !stop.load();
 }
 
-int slurm_tasks_left(const std::string& dir) {
+SlurmJobLeft slurm_job_left(const std::string& dir) {
+  SlurmJobLeft left;
   const std::string path = dir + "/slurm.job";
-  if (!fs::is_regular_file(path)) return 0;
-  const std::string id = trimmed(engine::read_text_file(path));
-  if (id.empty() || id.find_first_not_of("0123456789") != std::string::npos) return 0;
-  const JobState s = job_state(id);
-  return s.squeue_failed ? 0 : s.pending + s.running;
+  if (!fs::is_regular_file(path)) return left;
+  if (!parse_job(engine::read_text_file(path), &left.job)) {
+    left.unknown = path + " names no job";
+    return left;
+  }
+  left.has_job = true;
+  const JobState s = job_state(left.job);
+  if (s.squeue_failed) {
+    left.unknown = "squeue: " + s.error;
+  } else {
+    left.tasks = s.pending + s.running;
+  }
+  return left;
 }
 
 }  // namespace hapvox::cli

@@ -31,6 +31,11 @@ SessionNumbers numbers_of(const std::string& session) {
   };
   SessionNumbers n;
   n.tool_diameter_mm = attribute("tool_diameter_mm");
+  if (n.tool_diameter_mm.empty() && !attribute("tool_radius_mm").empty()) {  // FEM sessions
+    char text[32];
+    std::snprintf(text, sizeof text, "%.17g", 2.0 * std::stod(attribute("tool_radius_mm")));
+    n.tool_diameter_mm = text;
+  }
   n.youngs_modulus_pa =
       attribute("youngs_modulus_pa");  // the command line's (materials: per tissue)
   n.peak_force_n = attribute("summary_peak_force_n");
@@ -114,8 +119,21 @@ std::string csv_cell(const std::string& text) {
 
 namespace {
 
-void write_csv(const std::string& path, const SweepTable& table) {
+// Writes PATH through PATH.partial, renamed once whole; removed when writing failed. (Only
+// one sweep writes DIR's summaries at a time: tools/sweep_plan.h's SweepDirLock.)
+template <typename Write>
+void write_through_partial(const std::string& path, Write write) {
   const std::string partial = path + ".partial";
+  try {
+    write(partial);
+  } catch (...) {
+    std::filesystem::remove(partial);
+    throw;
+  }
+  std::filesystem::rename(partial, path);
+}
+
+void write_csv(const std::string& path, const std::string& partial, const SweepTable& table) {
   {
     std::ofstream out(partial);
     if (!out) throw InputError(path, "cannot be written");
@@ -129,11 +147,9 @@ void write_csv(const std::string& path, const SweepTable& table) {
     }
     if (!out.flush()) throw InputError(path, "cannot be written");
   }
-  std::filesystem::rename(partial, path);
 }
 
-void write_h5(const std::string& path, const SweepTable& table) {
-  const std::string partial = path + ".partial";
+void write_h5(const std::string& path, const std::string& partial, const SweepTable& table) {
   {
     haptics::H5Id file(H5Fcreate(partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
                        H5Fclose);
@@ -173,17 +189,19 @@ void write_h5(const std::string& path, const SweepTable& table) {
              H5Dwrite(set.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, text.data()) >= 0;
       }
     }
+    // Variable-length: h5py reads it as a str.
     haptics::H5Id type(H5Tcopy(H5T_C_S1), H5Tclose);
-    H5Tset_size(type.get(), names.size() + 1);
+    H5Tset_size(type.get(), H5T_VARIABLE);
+    H5Tset_cset(type.get(), H5T_CSET_UTF8);
     haptics::H5Id scalar(H5Screate(H5S_SCALAR), H5Sclose);
     haptics::H5Id attribute(
         H5Acreate2(file.get(), "columns", type.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT),
         H5Aclose);
-    ok = ok && attribute.valid() && H5Awrite(attribute.get(), type.get(), names.c_str()) >= 0;
+    const char* text = names.c_str();
+    ok = ok && attribute.valid() && H5Awrite(attribute.get(), type.get(), &text) >= 0;
     ok = attribute.close() && ok;
     if (!ok || !file.close()) throw InputError(path, "cannot be written");
   }
-  std::filesystem::rename(partial, path);
 }
 
 }  // namespace
@@ -191,8 +209,9 @@ void write_h5(const std::string& path, const SweepTable& table) {
 void write_sweep_summaries(const std::string& dir, const std::vector<haptics::SweepRow>& rows,
                            const std::vector<SweepOutcome>& outcomes) {
   const SweepTable table = sweep_table(rows, outcomes);
-  write_csv(dir + "/summary.csv", table);
-  write_h5(dir + "/summary.h5", table);
+  const std::string csv = dir + "/summary.csv", h5 = dir + "/summary.h5";
+  write_through_partial(csv, [&](const std::string& partial) { write_csv(csv, partial, table); });
+  write_through_partial(h5, [&](const std::string& partial) { write_h5(h5, partial, table); });
 }
 
 }  // namespace hapvox::cli

@@ -76,36 +76,70 @@ TEST(SweepManifest, AnIdFollowsTheInputsBytesNotTheirNames) {
   std::ofstream(dir + "/a.csv") << "t,x,y,z\n0,1,2,3\n";
   std::ofstream(dir + "/same.csv") << "t,x,y,z\n0,1,2,3\n";
   std::ofstream(dir + "/b.csv") << "t,x,y,z\n0,1,2,4\n";
+  SweepFileDigests digests;
+  auto id_of = [&](const SweepRow& row, const std::vector<std::string>& volume_files = {}) {
+    return sweep_row_id(row, volume_files, digests);
+  };
   SweepRow row;
   row.trace = dir + "/a.csv";
   row.volume = "block:dims=32";
-  const std::string id = sweep_row_id(row);
+  const std::string id = id_of(row);
   EXPECT_EQ(id.size(), 16u);
   EXPECT_EQ(id.find_first_not_of("0123456789abcdef"), std::string::npos);
-  EXPECT_EQ(sweep_row_id(row), id);  // deterministic
+  EXPECT_EQ(id_of(row), id);  // deterministic
   SweepRow renamed = row;
   renamed.trace = dir + "/same.csv";
-  EXPECT_EQ(sweep_row_id(renamed), id);  // the same bytes elsewhere
+  EXPECT_EQ(id_of(renamed), id);  // the same bytes elsewhere
   SweepRow changed = row;
   changed.trace = dir + "/b.csv";
-  EXPECT_NE(sweep_row_id(changed), id);  // one byte of the trace
+  EXPECT_NE(id_of(changed), id);  // one byte of the trace
   SweepRow other_volume = row;
   other_volume.volume = "block:dims=33";
-  EXPECT_NE(sweep_row_id(other_volume), id);
+  EXPECT_NE(id_of(other_volume), id);
   SweepRow with_option = row;
   with_option.options = {{"plastic", ""}};
-  EXPECT_NE(sweep_row_id(with_option), id);
+  EXPECT_NE(id_of(with_option), id);
   SweepRow fem = row;
   fem.model = "fem";
-  EXPECT_NE(sweep_row_id(fem), id);
+  EXPECT_NE(id_of(fem), id);
   // A value cannot pass for a flag's name: --a b is not --ab.
   SweepRow split = row, joined = row;
   split.options = {{"a", "b"}};
   joined.options = {{"ab", ""}};
-  EXPECT_NE(sweep_row_id(split), sweep_row_id(joined));
+  EXPECT_NE(id_of(split), id_of(joined));
   SweepRow missing = row;
   missing.trace = dir + "/none.csv";
-  EXPECT_THROW(sweep_row_id(missing), InputError);
+  EXPECT_EQ(testing::input_error_of([&] { id_of(missing); }), dir + "/none.csv: cannot be read");
+}
+
+TEST(SweepManifest, AVolumesIdCoversEveryFileItReadsAndTheOptionsAfterItsPath) {
+  const std::string dir = testing::scratch_dir();
+  std::ofstream(dir + "/t.csv") << "t,x,y,z\n0,1,2,3\n";
+  std::ofstream(dir + "/ct.nhdr") << "NRRD0004\ndata file: ct.raw\n";
+  std::ofstream(dir + "/ct.raw") << std::string(64, '\0');
+  std::ofstream(dir + "/copy.nhdr") << "NRRD0004\ndata file: ct.raw\n";
+  SweepFileDigests digests;
+  SweepRow row;
+  row.trace = dir + "/t.csv";
+  row.volume = dir + "/ct.nhdr";
+  const std::vector<std::string> files = {dir + "/ct.nhdr", dir + "/ct.raw"};
+  const std::string id = sweep_row_id(row, files, digests);
+  SweepRow copy = row;
+  copy.volume = dir + "/copy.nhdr";
+  EXPECT_EQ(sweep_row_id(copy, {dir + "/copy.nhdr", dir + "/ct.raw"}, digests), id);
+  // One voxel of the data file changed: another ID (with digests read afresh).
+  std::ofstream(dir + "/ct.raw") << std::string(63, '\0') << '\1';
+  SweepFileDigests fresh;
+  EXPECT_NE(sweep_row_id(row, files, fresh), id);
+  // A raw file's options after its path count; its path does not.
+  SweepRow raw = row, other_dims = row, moved = row;
+  raw.volume = dir + "/ct.raw:dims=4,4,4";
+  other_dims.volume = dir + "/ct.raw:dims=8,4,2";
+  moved.volume = dir + "/copy.raw:dims=4,4,4";
+  std::ofstream(dir + "/copy.raw") << std::string(63, '\0') << '\1';
+  const std::string raw_id = sweep_row_id(raw, {dir + "/ct.raw"}, fresh);
+  EXPECT_NE(sweep_row_id(other_dims, {dir + "/ct.raw"}, fresh), raw_id);
+  EXPECT_EQ(sweep_row_id(moved, {dir + "/copy.raw"}, fresh), raw_id);
 }
 
 TEST(SweepManifest, MistakesAreOneLineNamingTheManifestsLine) {

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -89,92 +90,139 @@ TEST(SweepCli, TwelveRowsTwoAtATimeAreTheSessionsOfTwelveSingleReplays) {
   EXPECT_FALSE(fs::exists(dir + "/p2"));
 }
 
-// Stand-ins for sbatch and squeue in DIR/bin: sbatch runs each task of the job array here,
-// one after another, with SLURM_ARRAY_TASK_ID set, and answers job 77; squeue no longer
-// knows the job. What the real Slurm does with the same script, CI's Slurm stage checks
+// Stand-ins for sbatch and squeue in DIR/bin. sbatch runs each task of the job array here,
+// one after another, with SLURM_ARRAY_JOB_ID (77, then 78, ...) and SLURM_ARRAY_TASK_ID set,
+// and answers the job's ID. squeue lists a running and a queued task for as many calls as
+// DIR/bin/running_calls says (forever while DIR/bin/running exists), then no longer knows
+// the job. What the real Slurm does with the same script, CI's Slurm stage checks
 // (sweep_slurm_check.cc).
 std::string fake_slurm(const std::string& dir) {
-  fs::create_directories(dir + "/bin");
-  std::ofstream(dir + "/bin/sbatch")
+  const std::string bin = dir + "/bin";
+  fs::create_directories(bin);
+  std::ofstream(bin + "/sbatch")
       << "#!/bin/bash\n"
          "[ \"$1\" = --parsable ] && shift\n"
-         "echo \"$1\" >> "
-      << dir
-      << "/bin/submitted\n"
+         "id=$(cat "
+      << bin
+      << "/next_job 2>/dev/null || echo 77)\n"
+         "echo $((id + 1)) > "
+      << bin
+      << "/next_job\n"
          "range=$(sed -n 's/^#SBATCH --array=\\([0-9]*-[0-9]*\\).*/\\1/p' \"$1\")\n"
          "for t in $(seq ${range%-*} ${range#*-}); do\n"
-         "  SLURM_ARRAY_TASK_ID=$t bash \"$1\" > /dev/null 2>&1\n"
+         "  SLURM_ARRAY_JOB_ID=$id SLURM_ARRAY_TASK_ID=$t bash \"$1\" > /dev/null 2>&1\n"
          "done\n"
-         "echo 77\n";
-  std::ofstream(dir + "/bin/squeue")
-      << "#!/bin/bash\necho 'slurm_load_jobs error: Invalid job id specified' >&2\nexit 1\n";
-  fs::permissions(dir + "/bin/sbatch", fs::perms::owner_all);
-  fs::permissions(dir + "/bin/squeue", fs::perms::owner_all);
+         "echo $id\n";
+  std::ofstream(bin + "/squeue") << "#!/bin/bash\n"
+                                    "calls=$(cat "
+                                 << bin
+                                 << "/running_calls 2>/dev/null || echo 0)\n"
+                                    "if [ -e "
+                                 << bin
+                                 << "/running ] || [ \"$calls\" -gt 0 ]; then\n"
+                                    "  echo $((calls > 0 ? calls - 1 : 0)) > "
+                                 << bin
+                                 << "/running_calls\n"
+                                    "  printf 'RUNNING\\nPENDING\\n'\n"
+                                    "  exit 0\n"
+                                    "fi\n"
+                                    "echo 'slurm_load_jobs error: Invalid job id specified' >&2\n"
+                                    "exit 1\n";
+  fs::permissions(bin + "/sbatch", fs::perms::owner_all);
+  fs::permissions(bin + "/squeue", fs::perms::owner_all);
   // The job's tasks call `hapvox` by name (the nodes' PATH).
-  return "PATH=" + dir + "/bin:" + fs::path(testing::hapvox_binary()).parent_path().string() +
-         ":$PATH";
+  return "PATH=" + bin + ":" + fs::path(testing::hapvox_binary()).parent_path().string() + ":$PATH";
 }
 
-// Six rows: 3 traces x 2 tool sizes on the clay block.
-void write_six_row_manifest(const std::string& dir) {
+// Six rows: 3 traces x 2 tool sizes on the clay block; with `failing`, a seventh row that
+// the replay refuses (a negative yield stress).
+void write_six_row_manifest(const std::string& dir, bool failing = false) {
   std::ofstream(dir + "/sweep.toml") << "traces = ['press16.csv', 'press24.csv', 'press32.csv']\n"
                                         "volumes = ['block:dims=48']\n"
                                         "[options]\n"
-                                        "tool-diameter-mm = [6, 8]\n";
+                                        "tool-diameter-mm = [6, 8]\n"
+                                     << (failing ? "[[row]]\n"
+                                                   "trace = 'press24.csv'\n"
+                                                   "volume = 'block:dims=48'\n"
+                                                   "options = { plastic = true, "
+                                                   "yield-stress-pa = -5 }\n"
+                                                 : "");
 }
 
 TEST(SweepCli, ASlurmJobArrayRunsTheRowsTheLocalPoolRunsAndResumesWhatIsMissing) {
   const std::string dir = scratch_dir();
   write_traces(dir);
-  write_six_row_manifest(dir);
-  ASSERT_EQ(run_hapvox("sweep " + dir + "/sweep.toml -o " + dir + "/local -j 2").exit_code, 0);
+  write_six_row_manifest(dir, /*failing=*/true);
+  const std::string sweep = "sweep " + dir + "/sweep.toml -o ";
+  ASSERT_EQ(run_hapvox(sweep + dir + "/local -j 2").exit_code, 101);
   const std::string path = fake_slurm(dir);
   const std::string slurm = dir + "/slurm";
+  // The job's tasks run (and fail one row) while squeue still lists the job twice.
+  std::ofstream(dir + "/bin/running_calls") << "2\n";
   const testing::CommandResult r = run_hapvox_env(
-      path, "sweep " + dir + "/sweep.toml -o " + slurm +
+      path, sweep + slurm +
                 " --slurm --wait --rows-per-task 4 --max-parallel 1 --partition debug --time 10");
-  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  EXPECT_NE(r.out.find("6 rows -> " + slurm + " (6 to run, as a Slurm job array"),
+  EXPECT_EQ(r.exit_code, 101) << r.out << r.err;
+  EXPECT_NE(r.out.find("7 rows -> " + slurm + " (7 to run, as a Slurm job array"),
             std::string::npos)
       << r.out;
   EXPECT_NE(r.out.find("job 77 submitted (" + slurm + "/sweep.sbatch"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("6 done, 0 failed, 0 not run"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("6 done, 1 failed, 0 not run"), std::string::npos) << r.out;
+  EXPECT_EQ(testing::read_file(dir + "/bin/running_calls"), "0\n");  // it was followed to the end
   EXPECT_EQ(testing::read_file(slurm + "/slurm.job"), "77\n");
-  // Two tasks (4 rows, then 2), one at a time, on the partition and time asked for.
+  // Two tasks (4 rows, then 3), one at a time, on the partition and time asked for.
   const std::string script = testing::read_file(slurm + "/sweep.sbatch");
   EXPECT_NE(script.find("\n#SBATCH --array=0-1%1\n"), std::string::npos) << script;
   EXPECT_NE(script.find("\n#SBATCH --partition=debug\n#SBATCH --time=10\n"), std::string::npos)
       << script;
   const auto local = read_summary(dir + "/local/summary.csv");
   const auto summary = read_summary(slurm + "/summary.csv");
-  ASSERT_EQ(summary.size(), 6u);
-  for (std::size_t i = 0; i < 6; ++i) {
+  ASSERT_EQ(summary.size(), 7u);
+  for (std::size_t i = 0; i < 7; ++i) {
     const std::string id = local[i].at("id");
     EXPECT_EQ(summary[i].at("id"), id);
-    EXPECT_EQ(summary[i].at("status"), "done");
+    EXPECT_EQ(summary[i].at("status"), local[i].at("status"));
     EXPECT_EQ(summary[i].at("peak_force_n"), local[i].at("peak_force_n"));
-    expect_same_sessions(dir + "/local/" + id + ".h5", slurm + "/" + id + ".h5");
+    if (i < 6) expect_same_sessions(dir + "/local/" + id + ".h5", slurm + "/" + id + ".h5");
   }
-  // A lost session: --emit writes a job of that row alone, and --collect counts it missing
-  // until the job has run.
+  EXPECT_EQ(summary[6].at("status"), "failed");
+
+  // A lost session. While a job of the folder runs, nothing else may run its rows.
   const std::string lost = summary[4].at("id");
   fs::remove(slurm + "/" + lost + ".h5");
+  std::ofstream(dir + "/bin/running");
+  for (const char* backend : {" --emit slurm", " -j 1"}) {
+    const testing::CommandResult busy = run_hapvox_env(path, sweep + slurm + backend);
+    EXPECT_EQ(busy.exit_code, 2) << backend;
+    EXPECT_EQ(busy.err, "hapvox: error: " + slurm +
+                            ": Slurm job 77 still has 2 tasks queued or running (wait for it, or "
+                            "scancel 77; hapvox sweep --collect DIR gathers it)\n")
+        << backend;
+  }
+  const testing::CommandResult running = run_hapvox_env(path, "sweep --collect " + slurm);
+  EXPECT_EQ(running.exit_code, 102) << running.out;  // 1 failed, 1 not run (yet)
+  EXPECT_NE(running.out.find("job 77: 2 tasks still queued or running"), std::string::npos)
+      << running.out;
+  fs::remove(dir + "/bin/running");
+  // --emit writes a job of the lost row alone (and the failed one: --retry-failed).
   const testing::CommandResult emit =
-      run_hapvox_env(path, "sweep " + dir + "/sweep.toml -o " + slurm + " --emit slurm");
+      run_hapvox_env(path, sweep + slurm + " --emit slurm --retry-failed");
   ASSERT_EQ(emit.exit_code, 0) << emit.err;
+  EXPECT_FALSE(fs::exists(slurm + "/slurm.job"));  // the old job's
   const std::string again = testing::read_file(slurm + "/sweep.sbatch");
   EXPECT_NE(again.find("\n#SBATCH --array=0-0\n"), std::string::npos) << again;
-  EXPECT_NE(again.find("rows=(\n  " + lost + "\n)\n"), std::string::npos) << again;
-  const testing::CommandResult missing = run_hapvox("sweep --collect " + slurm);
-  EXPECT_EQ(missing.exit_code, 101) << missing.out;
-  EXPECT_NE(missing.out.find("5 done, 0 failed, 1 not run"), std::string::npos) << missing.out;
-  ASSERT_EQ(std::system(("cd " + dir + " && " + path + " sbatch " + slurm + "/sweep.sbatch > " +
-                         "/dev/null")
-                            .c_str()),
-            0);
-  const testing::CommandResult collected = run_hapvox("sweep --collect " + slurm);
-  EXPECT_EQ(collected.exit_code, 0) << collected.out;
-  EXPECT_NE(collected.out.find("6 done, 0 failed, 0 not run"), std::string::npos) << collected.out;
+  EXPECT_NE(again.find("rows=(\n  4:" + lost + ",6:" + summary[6].at("id") + "\n)\n"),
+            std::string::npos)
+      << again;
+  const testing::CommandResult missing = run_hapvox_env(path, "sweep --collect " + slurm);
+  EXPECT_EQ(missing.exit_code, 102) << missing.out;
+  EXPECT_NE(missing.out.find("5 done, 1 failed, 1 not run"), std::string::npos) << missing.out;
+  // Submitted by hand: its tasks say which job they were.
+  ASSERT_EQ(std::system((path + " sbatch " + slurm + "/sweep.sbatch > /dev/null").c_str()), 0);
+  EXPECT_EQ(testing::read_file(slurm + "/slurm.job"), "78\n");
+  const testing::CommandResult collected = run_hapvox_env(path, "sweep --collect " + slurm);
+  EXPECT_EQ(collected.exit_code, 101) << collected.out;
+  EXPECT_NE(collected.out.find("6 done, 1 failed, 0 not run"), std::string::npos) << collected.out;
   expect_same_sessions(dir + "/local/" + lost + ".h5", slurm + "/" + lost + ".h5");
 }
 
@@ -234,8 +282,13 @@ TEST(SweepCli, BadBackendFlagsAreOneLineAndRunNoRow) {
   expect_error(sweep + " --slurm --max-parallel -1",
                "--max-parallel: must be 0 (no limit) or more");
   expect_error("sweep " + dir + "/sweep.toml -o '" + dir + "/o u t' --emit slurm",
-               "--output: a Slurm sweep's directory may not hold spaces, quotes, '\\', '$' or "
-               "'`' (#SBATCH lines take one plain word)");
+               "--output: a Slurm sweep's directory may not hold spaces, quotes, '\\', '$', '`' "
+               "or '%' (#SBATCH lines take one plain word)");
+  expect_error("sweep " + dir + "/sweep.toml -o " + dir + "/100% --emit slurm",
+               "--output: a Slurm sweep's directory may not hold spaces, quotes, '\\', '$', '`' "
+               "or '%' (#SBATCH lines take one plain word)");
+  expect_error(sweep + " --partition debug", "--partition: needs --slurm or --emit slurm");
+  expect_error(sweep + " --rows-per-task 2", "--rows-per-task: needs --slurm or --emit slurm");
   expect_error(sweep + " --hosts " + dir + "/none", dir + "/none: cannot be read");
   std::ofstream(dir + "/hosts") << "# nobody\n";
   expect_error(sweep + " --hosts " + dir + "/hosts",
@@ -243,22 +296,36 @@ TEST(SweepCli, BadBackendFlagsAreOneLineAndRunNoRow) {
   std::ofstream(dir + "/hosts") << "node1\nnode2; rm -rf /\n";
   expect_error(sweep + " --hosts " + dir + "/hosts",
                dir + "/hosts:2: a host line holds a quote or a shell character");
+  std::ofstream(dir + "/hosts") << ":\n";
+  expect_error("sweep " + dir + "/sweep.toml -o " + dir + "/{} --hosts " + dir + "/hosts",
+               "--output: '" + dir + "/{}' holds a brace, which GNU parallel would replace");
   expect_error(sweep + " --slurm --hosts " + dir + "/hosts",
                "--hosts: cannot be combined with --slurm");
   expect_error(sweep + " --task-rows 0123456789abcdef",
-               "--task-rows: row 0123456789abcdef is not in " + dir +
-                   "/sweep.toml (was the manifest or one of its files changed since?)");
-  expect_error("sweep --collect " + dir, dir +
-                                             ": is not a sweep's directory (it has no "
-                                             "sweep.manifest)");
+               "--task-rows: '0123456789abcdef' is not INDEX:ID (a row of the job script)");
+  expect_error(sweep + " --task-rows 9:0123456789abcdef",
+               "--task-rows: row 9 is not in " + dir + "/sweep.toml (it has 6 rows)");
+  const testing::CommandResult changed = run_hapvox(sweep + " --task-rows 0:0123456789abcdef");
+  EXPECT_EQ(changed.exit_code, 2);
+  EXPECT_EQ(
+      changed.err.rfind("hapvox: error: --task-rows: row 0 (" + dir + "/sweep.toml:1) is ", 0), 0u)
+      << changed.err;
+  EXPECT_NE(changed.err.find(", not 0123456789abcdef: the manifest or one of its files changed "
+                             "since the job was written\n"),
+            std::string::npos)
+      << changed.err;
+  expect_error("sweep --collect " + dir,
+               dir + ": is not a sweep's directory (it has no sweep.manifest)");
+  expect_error("sweep --collect " + dir + " -j 2",
+               "--collect: takes the directory alone (not --jobs)");
   expect_error("sweep -o " + dir + "/out", "sweep: needs a manifest (or --collect DIR)");
-  // No sbatch on the PATH: one line, the script kept for submitting by hand.
-  const testing::CommandResult r =
-      run_hapvox_env("PATH=/usr/local/nothing:/nothing", sweep + " --slurm");
+  // No sbatch on the PATH: one line, nothing written.
+  const testing::CommandResult r = run_hapvox_env("PATH=/nothing", sweep + " --slurm");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err,
             "hapvox: error: --slurm: sbatch is not on this machine's PATH (is this a Slurm "
             "login node? --emit slurm writes the script alone)\n");
+  EXPECT_FALSE(fs::exists(dir + "/out"));
 }
 
 // A row's session in a sweep's directory (ID.h5; summary.h5 is not one).
@@ -334,6 +401,33 @@ TEST(SweepCli, AKilledSweepRerunsOnlyItsMissingRowsAndAFailedRowIsCounted) {
   EXPECT_NE(retry.out.find("(1 to run"), std::string::npos) << retry.out;
 }
 
+// The rows' commands (DIR/ID.cmd) a dry run of `manifest` writes: their IDs.
+std::set<std::string> dry_run_ids(const std::string& manifest, const std::string& out) {
+  EXPECT_EQ(run_hapvox("sweep " + manifest + " -o " + out + " --dry-run").exit_code, 0);
+  std::set<std::string> ids;
+  for (const auto& e : fs::directory_iterator(out)) {
+    if (e.path().extension() == ".cmd") ids.insert(e.path().stem().string());
+  }
+  return ids;
+}
+
+TEST(SweepCli, ARowsIdFollowsTheDataFileItsVolumesHeaderNames) {
+  const std::string dir = scratch_dir();
+  write_traces(dir);
+  std::ofstream(dir + "/v.nhdr") << "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 8 8 8\n"
+                                    "encoding: raw\ndata file: v.raw\n";
+  std::ofstream(dir + "/v.raw") << std::string(512, '\x80');
+  std::ofstream(dir + "/sweep.toml") << "traces = ['press16.csv']\nvolumes = ['v.nhdr']\n";
+  const std::set<std::string> first = dry_run_ids(dir + "/sweep.toml", dir + "/a");
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_EQ(dry_run_ids(dir + "/sweep.toml", dir + "/b"), first);  // the same files
+  // One voxel of the data file changed, the header not: another replay, another ID.
+  std::ofstream(dir + "/v.raw") << std::string(511, '\x80') << '\x81';
+  const std::set<std::string> second = dry_run_ids(dir + "/sweep.toml", dir + "/c");
+  ASSERT_EQ(second.size(), 1u);
+  EXPECT_NE(*second.begin(), *first.begin());
+}
+
 TEST(SweepCli, ABadManifestIsOneLineNamingItsLineAndRunsNoRow) {
   const std::string dir = scratch_dir();
   write_traces(dir);
@@ -350,6 +444,8 @@ TEST(SweepCli, ABadManifestIsOneLineNamingItsLineAndRunsNoRow) {
                "[[row]])");
   expect_error("traces = ['none.csv']\nvolumes = ['block:dims=48']\n",
                "1: trace '" + dir + "/none.csv' is not a file");
+  expect_error("traces = ['press16.csv']\nvolumes = ['none.nrrd']\n",
+               "1: volume '" + dir + "/none.nrrd' is not a file or a generator");
   expect_error(grid + "materials = ['soft.toml']\n",
                "1: materials '" + dir + "/soft.toml' is not a file");
   expect_error(grid + "[options]\ntool-diameter-mm = ['big']\n",
