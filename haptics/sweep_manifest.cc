@@ -1,7 +1,5 @@
 #include "haptics/sweep_manifest.h"
 
-#include <toml++/toml.h>
-
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -12,6 +10,7 @@
 
 #include "engine/errors.h"
 #include "engine/text_file.h"
+#include "engine/toml_reporter.h"
 #include "engine/volume_io.h"
 
 namespace hapvox::haptics {
@@ -25,20 +24,7 @@ const char* const kReservedOptions[] = {"output",     "o",      "volume", "v",  
                                         "materials",  "quiet",  "q",      "trace-out", "sculpt-out",
                                         "render-dir", "device", "help",   "h",         "trace"};
 
-class Reporter {
- public:
-  explicit Reporter(const std::string& source) : source_(source) {}
-  [[noreturn]] void fail(const toml::node& node, const std::string& problem) const {
-    fail(line(node), problem);
-  }
-  [[noreturn]] void fail(int line, const std::string& problem) const {
-    throw InputError(source_ + ":" + std::to_string(line), problem);
-  }
-  static int line(const toml::node& node) { return static_cast<int>(node.source().begin.line); }
-
- private:
-  const std::string& source_;
-};
+using Reporter = engine::TomlReporter;  // engine/toml_reporter.h
 
 std::string resolved(const std::string& path, const std::string& base_dir) {
   if (path.empty() || fs::path(path).is_absolute() || base_dir.empty()) return path;
@@ -195,12 +181,7 @@ void check_model(const Reporter& r, int line, const std::string& model) {
 SweepManifest parse_sweep_manifest(std::string_view text, const std::string& source,
                                    const std::string& base_dir) {
   const Reporter r(source);
-  toml::table root;
-  try {
-    root = toml::parse(text, std::string_view(source));
-  } catch (const toml::parse_error& e) {
-    r.fail(static_cast<int>(e.source().begin.line), printable(e.description(), 200));
-  }
+  const toml::table root = engine::parse_toml(text, r);
   SweepManifest manifest;
   manifest.source = source;
   std::vector<std::string> traces, volumes, models{"voxel"}, materials{""};

@@ -1,7 +1,5 @@
 #include "engine/labels/materials.h"
 
-#include <toml++/toml.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -10,6 +8,7 @@
 #include "engine/errors.h"
 #include "engine/labels/text.h"
 #include "engine/text_file.h"
+#include "engine/toml_reporter.h"
 
 namespace hapvox::engine::labels {
 
@@ -57,24 +56,7 @@ std::string key_list(const std::array<std::string_view, N>& keys) {
   return out;
 }
 
-/// Errors at a line of one file.
-class Reporter {
- public:
-  explicit Reporter(std::string source) : source_(std::move(source)) {}
-  const std::string& source() const { return source_; }
-
-  std::string at(int line) const { return source_ + ":" + std::to_string(line); }
-  [[noreturn]] void fail(int line, const std::string& problem) const {
-    throw InputError(at(line), problem);
-  }
-  [[noreturn]] void fail(const toml::node& node, const std::string& problem) const {
-    fail(line(node), problem);
-  }
-  static int line(const toml::node& node) { return static_cast<int>(node.source().begin.line); }
-
- private:
-  std::string source_;
-};
+using Reporter = engine::TomlReporter;  // engine/toml_reporter.h
 
 /// A table's entries in file order (toml++ keeps them sorted by key).
 std::vector<std::pair<std::string, const toml::node*>> in_file_order(const toml::table& table) {
@@ -279,12 +261,7 @@ std::set<Label> Materials::fixed_labels() const {
 
 Materials parse_materials(std::string_view text, const std::string& source) {
   const Reporter r(source);
-  toml::table root;
-  try {
-    root = toml::parse(text, std::string_view(source));
-  } catch (const toml::parse_error& e) {
-    r.fail(static_cast<int>(e.source().begin.line), printable(e.description(), 200));
-  }
+  const toml::table root = engine::parse_toml(text, r);
   Materials out;
   out.source = source;
   for (const auto& [key, node] : in_file_order(root)) {

@@ -1,31 +1,18 @@
 #include "engine/proxy/incision_file.h"
 
-#include <toml++/toml.h>
-
 #include <cmath>
 #include <vector>
 
 #include "engine/errors.h"
 #include "engine/text_file.h"
+#include "engine/toml_reporter.h"
 
 namespace hapvox::engine::proxy {
 namespace {
 
 using Eigen::Vector3d;
 
-class Reporter {
- public:
-  explicit Reporter(const std::string& source) : source_(source) {}
-  [[noreturn]] void fail(const toml::node& node, const std::string& problem) const {
-    fail(static_cast<int>(node.source().begin.line), problem);
-  }
-  [[noreturn]] void fail(int line, const std::string& problem) const {
-    throw InputError(source_ + ":" + std::to_string(line), problem);
-  }
-
- private:
-  const std::string& source_;
-};
+using Reporter = engine::TomlReporter;  // engine/toml_reporter.h
 
 double number_of(const Reporter& r, const std::string& key, const toml::node& node) {
   if (!node.is_number()) r.fail(node, key + " must be a number");
@@ -51,12 +38,7 @@ const toml::array& array_of(const Reporter& r, const std::string& key, const tom
 
 IncisionFile parse_incision(std::string_view text, const std::string& source) {
   const Reporter r(source);
-  toml::table root;
-  try {
-    root = toml::parse(text, std::string_view(source));
-  } catch (const toml::parse_error& e) {
-    r.fail(static_cast<int>(e.source().begin.line), printable(e.description(), 200));
-  }
+  const toml::table root = engine::parse_toml(text, r);
   IncisionFile out;
   out.source = source;
   const toml::node *width = nullptr, *polyline = nullptr, *sweep = nullptr, *triangles = nullptr;
