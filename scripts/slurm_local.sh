@@ -52,7 +52,9 @@ mkdir -p "$dir/state" "$dir/spool" "$dir/munge"
 dir=$(cd "$dir" && pwd)
 chmod 755 "$dir"  # munged runs as munge and must reach its folder (mktemp -d makes 0700)
 chown munge:munge "$dir/munge"
-[[ -f /etc/munge/munge.key ]] || fail "/etc/munge/munge.key is missing (reinstall munge)"
+if [[ ! -f /etc/munge/munge.key ]]; then  # the package makes one; a stripped image may not
+  runuser -u munge -- mungekey -c -k /etc/munge/munge.key || fail "no /etc/munge/munge.key, and mungekey could not make one"
+fi
 
 # munged as the munge user, its socket in DIR (Slurm is told where: AuthInfo).
 socket="$dir/munge/munge.socket"
