@@ -1,57 +1,17 @@
 #include "tools/sweep_parallel.h"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <thread>
 #include <utility>
 
 #include "engine/errors.h"
 #include "tools/cli.h"
+#include "tools/sweep_pool.h"
 #include "tools/sweep_slurm.h"
 
 namespace hapvox::cli {
-namespace {
-
 namespace fs = std::filesystem;
-
-// `/bin/sh -c command` with its output appended to `output_path`, waited for; SIGTERM once
-// `stop` is set. Its exit status, or 128 + the signal that ended it.
-int run_until_stopped(const std::string& command, const std::string& output_path,
-                      const std::atomic<bool>& stop) {
-  const int out = ::open(output_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (out < 0) throw InputError(output_path, "cannot be written");
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    ::close(out);
-    throw InputError("--hosts", "cannot start GNU parallel (fork failed)");
-  }
-  if (pid == 0) {
-    ::dup2(out, STDOUT_FILENO);
-    ::dup2(out, STDERR_FILENO);
-    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  ::close(out);
-  bool signalled = false;
-  int status = 0;
-  while (::waitpid(pid, &status, WNOHANG) == 0) {
-    if (stop.load() && !signalled) {
-      ::kill(pid, SIGTERM);
-      signalled = true;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-}  // namespace
 
 void check_hosts_run(const std::string& hosts_file, const std::string& dir,
                      const std::string& manifest_path) {
@@ -101,7 +61,17 @@ int run_over_hosts(const SweepPlan& plan, const std::string& hosts_file,
                               shell_quoted(fs::absolute(hosts_file).string()) + " --arg-file " +
                               shell_quoted(rows) + " --joblog " +
                               shell_quoted(plan.dir + "/parallel.log") + " " + shell_quoted(job);
-  return run_until_stopped(command, plan.dir + "/parallel.out", stop);
+  // One job in the sweep's pool: its output to DIR/parallel.out, SIGTERM once `stop` is set.
+  PoolJob job_of_parallel;
+  job_of_parallel.executable = "/bin/sh";
+  job_of_parallel.args = {"-c", command};
+  job_of_parallel.working_dir = plan.dir;
+  job_of_parallel.log_path = plan.dir + "/parallel.out";
+  JobStatus status = 0;
+  run_pool(
+      {job_of_parallel}, 1, "sh", stop, [](std::size_t) {},
+      [&](std::size_t, JobStatus end) { status = end; });
+  return status;
 }
 
 }  // namespace hapvox::cli

@@ -40,7 +40,7 @@ pid_t start(const PoolJob& job, const std::string& program) {
     ::dup2(log, STDERR_FILENO);
     ::signal(SIGINT, SIG_DFL);
     ::signal(SIGTERM, SIG_DFL);
-    ::execv("/proc/self/exe", argv.data());
+    ::execv(job.executable.c_str(), argv.data());
     ::_exit(127);
   }
   ::close(log);

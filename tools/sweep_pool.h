@@ -1,8 +1,8 @@
 #pragma once
 // A local pool of child processes for `hapvox sweep` (tools/cmd_sweep.cc): each job is this
-// program run again with its own arguments, working directory and log file, at most N at
-// once. A process per replay: a row that crashes takes only itself down, and a replay's
-// realtime scheduling or memory is its own.
+// program (or, for GNU parallel, another) run with its own arguments, working directory and
+// log file, at most N at once. A process per replay: a row that crashes takes only itself down, and
+// a replay's realtime scheduling or memory is its own.
 
 #include <atomic>
 #include <functional>
@@ -12,7 +12,8 @@
 namespace hapvox::cli {
 
 struct PoolJob {
-  std::vector<std::string> args;  // after the program name
+  std::string executable = "/proc/self/exe";  // this program, unless another is named
+  std::vector<std::string> args;              // after the program name
   std::string working_dir;
   std::string log_path;  // the child's stdout and stderr
 };
@@ -20,7 +21,7 @@ struct PoolJob {
 /// How a job ended: its exit code, or 128 + the signal that killed it.
 using JobStatus = int;
 
-/// Runs `jobs` in order, at most `parallel` at once, each as `/proc/self/exe` with argv[0]
+/// Runs `jobs` in order, at most `parallel` at once, each as its executable with argv[0]
 /// `program` and the job's arguments. `on_start(i)` and `on_end(i, status)` run on the
 /// calling thread. Once `stop` is set no job starts, and those running are sent SIGTERM and
 /// waited for (their on_end gets their status). Throws InputError("sweep", ...) when a child

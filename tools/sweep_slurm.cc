@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "engine/errors.h"
+#include "engine/io/text.h"
 #include "engine/text_file.h"
 #include "tools/cli.h"
 
@@ -31,23 +32,16 @@ int rows_per_task(const SlurmOptions& options, std::size_t rows) {
   return std::max<int>(kDefaultRowsPerTask, static_cast<int>(needed));
 }
 
-std::string trimmed(std::string text) {
-  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
-  std::size_t start = 0;
-  while (start < text.size() && std::isspace(static_cast<unsigned char>(text[start]))) ++start;
-  return text.substr(start);
-}
-
 // sbatch's or squeue's words, on one line.
 std::string one_line(const std::string& output) {
-  std::string line = trimmed(output);
+  std::string line = engine::io::trim(output);
   std::replace(line.begin(), line.end(), '\n', ' ');
   return line.empty() ? "(no output)" : line;
 }
 
 // "ID" or "ID;CLUSTER" (sbatch --parsable's answer, and DIR/slurm.job's text).
 bool parse_job(const std::string& text, SlurmJob* job) {
-  const std::string line = trimmed(text);
+  const std::string line = engine::io::trim(text);
   const std::size_t semicolon = line.find(';');
   job->id = line.substr(0, semicolon);
   job->cluster = semicolon == std::string::npos ? "" : line.substr(semicolon + 1);
@@ -169,7 +163,7 @@ SlurmJob submit_slurm_script(const std::string& script, const std::string& dir) 
     throw InputError("--slurm", "sbatch refused the job: " + one_line(r.output));
   }
   // --parsable: "ID" or "ID;CLUSTER" on the last line (warnings come before it).
-  std::string last = trimmed(r.output);
+  std::string last = engine::io::trim(r.output);
   if (const std::size_t nl = last.rfind('\n'); nl != std::string::npos) last = last.substr(nl + 1);
   SlurmJob job;
   if (!parse_job(last, &job)) {
@@ -201,7 +195,7 @@ JobState job_state(const SlurmJob& job) {
   }
   std::istringstream lines(r.output);
   for (std::string line; std::getline(lines, line);) {
-    line = trimmed(line);
+    line = engine::io::trim(line);
     if (line.rfind("CLUSTER:", 0) == 0) continue;  // --clusters' heading
     if (line == "PENDING" || line == "REQUEUED" || line == "REQUEUE_HOLD") {
       ++s.pending;
