@@ -126,9 +126,8 @@ bool run_locally(SweepPlan& plan, int parallel) {
 }
 
 // After a Slurm job or parallel ended: the summary, rows left not run counted as failed.
-[[noreturn]] void summarise_ended(const std::string& manifest, const std::string& dir,
-                                  const std::string& backend) {
-  const SweepPlan plan = plan_sweep(manifest, dir, false);
+[[noreturn]] void summarise_ended(SweepPlan& plan, const std::string& backend) {
+  refresh_outcomes(plan);
   const SweepCounts c = summarise_sweep(plan);
   if (c.not_run > 0) {
     std::printf(
@@ -269,7 +268,7 @@ void run_sweep(const SweepFlags& f, CLI::App& cmd) {
   if (slurm) {
     if (plan.to_run.empty()) {
       std::printf("  slurm            nothing to submit\n");
-      summarise_ended(f.manifest, f.output_dir, "the sweep");
+      summarise_ended(plan, "the sweep");
     }
     const std::string script = write_slurm_script(plan, f.slurm_options);
     if (!f.emit.empty()) {
@@ -295,7 +294,7 @@ void run_sweep(const SweepFlags& f, CLI::App& cmd) {
           job.text().c_str(), job.id.c_str(), plan.dir.c_str());
       exit_with(130);
     }
-    summarise_ended(f.manifest, f.output_dir, "Slurm job " + job.text());
+    summarise_ended(plan, "Slurm job " + job.text());
   }
   if (!f.hosts.empty()) {
     std::fflush(stdout);
@@ -305,10 +304,11 @@ void run_sweep(const SweepFlags& f, CLI::App& cmd) {
         "%s/parallel.out)\n",
         status, plan.dir.c_str(), plan.dir.c_str());
     if (stop.load()) {
-      summarise_sweep(plan_sweep(f.manifest, f.output_dir, false));
+      refresh_outcomes(plan);
+      summarise_sweep(plan);
       exit_with(130);
     }
-    summarise_ended(f.manifest, f.output_dir, "GNU parallel");
+    summarise_ended(plan, "GNU parallel");
   }
 
   const bool finished = run_locally(plan, parallel);

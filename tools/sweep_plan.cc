@@ -226,6 +226,10 @@ SweepDirLock::~SweepDirLock() {
   if (fd_ >= 0) ::close(fd_);  // the lock goes with the descriptor
 }
 
+void refresh_outcomes(SweepPlan& plan) {
+  for (std::size_t i = 0; i < plan.ids.size(); ++i) read_outcome(plan, i, /*retry_failed=*/false);
+}
+
 void write_row_commands(const SweepPlan& plan) {
   fs::create_directories(plan.dir);
   std::ofstream(plan.dir + "/sweep.manifest")

@@ -69,6 +69,10 @@ class SweepDirLock {
   int fd_ = -1;
 };
 
+/// Reads again where each row stands in DIR (after a job or GNU parallel ran them): done,
+/// failed or not run, whatever the plan said before.
+void refresh_outcomes(SweepPlan& plan);
+
 /// Writes DIR/ID.cmd for each row to run (`cd DIR && hapvox replay ...`: a row's replay by
 /// hand) and DIR/sweep.manifest (the manifest's path, for `--collect DIR`).
 void write_row_commands(const SweepPlan& plan);
