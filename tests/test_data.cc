@@ -4,6 +4,7 @@
 
 #include <sys/wait.h>
 
+#include <atomic>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -51,8 +52,11 @@ std::string read_file(const std::string& path) {
 CommandResult run_hapvox(const std::string& args) { return run_hapvox_env("", args); }
 
 CommandResult run_hapvox_env(const std::string& environment, const std::string& args) {
-  // Beside the test's scratch directory, not in it: the test may look at that one.
-  const std::string base = scratch_dir_name();
+  // Beside the test's scratch directory, not in it: the test may look at that one. Each
+  // call its own files: a test that runs two commands at once (a live replay and the device
+  // program feeding it) had both write one file, and one's output overwrote the other's.
+  static std::atomic<int> calls{0};
+  const std::string base = scratch_dir_name() + "_" + std::to_string(calls++);
   const std::string out = base + "_stdout.txt";
   const std::string err = base + "_stderr.txt";
   const std::string command =
