@@ -424,13 +424,25 @@ SessionInfo read_session_info(const std::string& path) {
   return info;
 }
 
-std::vector<double> read_session_column(const std::string& path, const std::string& dataset) {
+std::vector<double> read_session_column(const std::string& path, const std::string& dataset,
+                                        std::vector<std::size_t>* dims) {
   if (!is_hdf5_file(path)) throw InputError(path, "not an HDF5 file");
   const Handle file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
   if (file.id < 0) throw InputError(path, "cannot open HDF5 file");
   const Handle ds{H5Dopen2(file.id, dataset.c_str(), H5P_DEFAULT), H5Dclose};
   if (ds.id < 0) throw InputError(path, "no dataset " + dataset);
+  const Handle type{H5Dget_type(ds.id), H5Tclose};
+  const H5T_class_t type_class = H5Tget_class(type.id);
+  if (type_class != H5T_INTEGER && type_class != H5T_FLOAT) {
+    throw InputError(path, "dataset " + dataset + " is not numeric");
+  }
   const Handle space{H5Dget_space(ds.id), H5Sclose};
+  if (dims != nullptr) {
+    const int rank = H5Sget_simple_extent_ndims(space.id);
+    std::vector<hsize_t> extent(static_cast<std::size_t>(std::max(rank, 0)));
+    if (rank > 0) H5Sget_simple_extent_dims(space.id, extent.data(), nullptr);
+    dims->assign(extent.begin(), extent.end());
+  }
   std::vector<double> values(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space.id)));
   if (!values.empty() &&
       H5Dread(ds.id, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {

@@ -128,9 +128,11 @@ struct SessionInfo {
 /// Opens an HDF5 session for reading. Throws InputError(path, ...) if it is not one.
 SessionInfo read_session_info(const std::string& path);
 
-/// A numeric dataset of a session (or any HDF5 file), flattened row-major, as doubles.
-/// Throws InputError(path, ...) when missing.
-std::vector<double> read_session_column(const std::string& path, const std::string& dataset);
+/// A numeric dataset of a session (or any HDF5 file), flattened row-major, as doubles, and
+/// its shape into `dims` when given. Throws InputError(path, ...) when it is missing or
+/// not numeric (strings, compounds).
+std::vector<double> read_session_column(const std::string& path, const std::string& dataset,
+                                        std::vector<std::size_t>* dims = nullptr);
 
 /// True when the file starts with the HDF5 signature.
 bool is_hdf5_file(const std::string& path);

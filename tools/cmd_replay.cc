@@ -19,6 +19,34 @@
 
 namespace hapvox::cli {
 
+engine::ToolForceOptions voxel_force_options(const ReplayFlags& f) {
+  engine::validate_material(f.force.options.material, "--youngs-modulus-pa", "--poisson");
+  const double diameter = f.force.options.tool.diameter_mm;
+  if (!std::isfinite(diameter) || diameter <= 0.0) {
+    throw InputError("--tool-diameter-mm", "must be positive");
+  }
+  if (!(f.normal_density > 0.0 && f.normal_density <= 1.0)) {
+    throw InputError("--normal-density", "must lie in (0, 1] (a fraction of density 1)");
+  }
+  if (f.normal_density != 1.0 && !f.plastic)
+    throw InputError("--normal-density", "needs --plastic");
+  if (f.plastic) {
+    const auto& plastic = f.force.options.plastic;
+    if (!std::isfinite(plastic.yield_stress_pa) || plastic.yield_stress_pa <= 0.0) {
+      throw InputError("--yield-stress-pa", "must be positive");
+    }
+    if (!(plastic.elastoplastic_modulus_pa >= 0.0) ||
+        plastic.elastoplastic_modulus_pa >= f.force.options.material.youngs_modulus_pa) {
+      throw InputError("--elastoplastic-modulus-pa", "must lie in [0, E)");
+    }
+  }
+  engine::ToolForceOptions force_options = f.force.resolve();
+  force_options.plastic.enabled = f.plastic;
+  // Sculpted clay settles to its normal density: its nominal surface is at half of that.
+  if (!f.force.surface_density_given) force_options.surface_density = 0.5 * f.normal_density;
+  return force_options;
+}
+
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   const bool live = !f.device.empty() || f.front_end != nullptr;
   if (!f.device.empty()) check_bridge_flags(f);
@@ -41,11 +69,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   for (const CLI::Option* option : f.fem_only_options) {
     if (option->count() > 0) throw InputError(option->get_name(), "needs --model fem");
   }
-  engine::validate_material(f.force.options.material, "--youngs-modulus-pa", "--poisson");
-  const double diameter = f.force.options.tool.diameter_mm;
-  if (!std::isfinite(diameter) || diameter <= 0.0) {
-    throw InputError("--tool-diameter-mm", "must be positive");
-  }
+  engine::ToolForceOptions force_options = voxel_force_options(f);
   const haptics::TraceColumns columns = f.trace.columns();
   const engine::IntensityMapping mapping = f.mapping.resolve();
   check_loop_flags(f);
@@ -70,26 +94,6 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
     throw InputError("--relax-tolerance", "must lie in [0, 10]");
   }
-  if (!(f.normal_density > 0.0 && f.normal_density <= 1.0)) {
-    throw InputError("--normal-density", "must lie in (0, 1] (a fraction of density 1)");
-  }
-  if (f.normal_density != 1.0 && !f.plastic)
-    throw InputError("--normal-density", "needs --plastic");
-  if (f.plastic) {
-    const auto& plastic = f.force.options.plastic;
-    if (!std::isfinite(plastic.yield_stress_pa) || plastic.yield_stress_pa <= 0.0) {
-      throw InputError("--yield-stress-pa", "must be positive");
-    }
-    if (!(plastic.elastoplastic_modulus_pa >= 0.0) ||
-        plastic.elastoplastic_modulus_pa >= f.force.options.material.youngs_modulus_pa) {
-      throw InputError("--elastoplastic-modulus-pa", "must lie in [0, E)");
-    }
-  }
-  engine::ToolForceOptions force_options = f.force.resolve();
-  force_options.plastic.enabled = f.plastic;
-  // Sculpted clay settles to its normal density: its nominal surface is at half of that.
-  if (!f.force.surface_density_given) force_options.surface_density = 0.5 * f.normal_density;
-
   // Materials by tissue: the labels give each voxel its density and material.
   std::optional<engine::labels::TissueVolume> tissue;
   if (by_tissue) {
@@ -248,44 +252,46 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     engine::write_nrrd(sculpted_field, f.sculpt_out + ".nrrd");
   }
 
-  const std::string source = f.front_end ? f.front_end->name : live ? f.device : f.trace_path;
-  std::printf("%s %s on %s -> %s\n", f.front_end ? "sculpted with" : "replayed", source.c_str(),
-              f.volume.c_str(), f.output.c_str());
-  print_run_report(f, s, timing, device,
-                   "(" + std::to_string(model.surface_sample_count()) + " surface samples)");
-  if (f.realtime && f.plastic) {
-    print_stats_line("relax slices", timing.relax_slice);
-    std::printf("  relax thread     busy %.1f%% of the wall time, %.3f s CPU%s\n",
-                100.0 * timing.relax_busy_fraction, timing.relax_cpu_s,
-                timing.relax_fifo_demotions == 0
-                    ? ""
-                    : (", " + std::to_string(timing.relax_fifo_demotions) +
-                       " steps down from SCHED_FIFO (over 75% busy for 200 ms)")
-                          .c_str());
-  }
-  if (f.plastic) {
-    std::printf(
-        "  plastic          %llu events, %llu voxels deleted, %llu relaxed, queue max %zu "
-        "(%llu overflows coalesced), %s\n",
-        static_cast<unsigned long long>(sculpted.plastic_events),
-        static_cast<unsigned long long>(sculpted.deleted_voxels),
-        static_cast<unsigned long long>(sculpted.relaxed_voxels), sculpted.max_queue_depth,
-        static_cast<unsigned long long>(sculpted.queue_overflows),
-        sculpted.settled ? "settled" : "still relaxing at the end");
-    std::printf(
-        "  mass             %lld -> %lld units (%s)\n",
-        static_cast<long long>(sculpted.initial_mass_units),
-        static_cast<long long>(sculpted.final_mass_units),
-        sculpted.initial_mass_units == sculpted.final_mass_units ? "conserved exactly" : "CHANGED");
-    if (!f.sculpt_out.empty()) {
-      std::printf("  sculpted volume  %s.vdb, %s.nrrd\n", f.sculpt_out.c_str(),
-                  f.sculpt_out.c_str());
+  if (f.print_report) {
+    const std::string source = f.front_end ? f.front_end->name : live ? f.device : f.trace_path;
+    std::printf("%s %s on %s -> %s\n", f.front_end ? "sculpted with" : "replayed", source.c_str(),
+                f.volume.c_str(), f.output.c_str());
+    print_run_report(f, s, timing, device,
+                     "(" + std::to_string(model.surface_sample_count()) + " surface samples)");
+    if (f.realtime && f.plastic) {
+      print_stats_line("relax slices", timing.relax_slice);
+      std::printf("  relax thread     busy %.1f%% of the wall time, %.3f s CPU%s\n",
+                  100.0 * timing.relax_busy_fraction, timing.relax_cpu_s,
+                  timing.relax_fifo_demotions == 0
+                      ? ""
+                      : (", " + std::to_string(timing.relax_fifo_demotions) +
+                         " steps down from SCHED_FIFO (over 75% busy for 200 ms)")
+                            .c_str());
     }
+    if (f.plastic) {
+      std::printf(
+          "  plastic          %llu events, %llu voxels deleted, %llu relaxed, queue max %zu "
+          "(%llu overflows coalesced), %s\n",
+          static_cast<unsigned long long>(sculpted.plastic_events),
+          static_cast<unsigned long long>(sculpted.deleted_voxels),
+          static_cast<unsigned long long>(sculpted.relaxed_voxels), sculpted.max_queue_depth,
+          static_cast<unsigned long long>(sculpted.queue_overflows),
+          sculpted.settled ? "settled" : "still relaxing at the end");
+      std::printf("  mass             %lld -> %lld units (%s)\n",
+                  static_cast<long long>(sculpted.initial_mass_units),
+                  static_cast<long long>(sculpted.final_mass_units),
+                  sculpted.initial_mass_units == sculpted.final_mass_units ? "conserved exactly"
+                                                                           : "CHANGED");
+      if (!f.sculpt_out.empty()) {
+        std::printf("  sculpted volume  %s.vdb, %s.nrrd\n", f.sculpt_out.c_str(),
+                    f.sculpt_out.c_str());
+      }
+    }
+    if (bridged != nullptr) print_bridge_lines(*bridged);
+    if (recorder) print_render_line(f, *recorder, timing);
+    print_run_footer(s);
+    print_warnings(warnings);
   }
-  if (bridged != nullptr) print_bridge_lines(*bridged);
-  if (recorder) print_render_line(f, *recorder, timing);
-  print_run_footer(s);
-  print_warnings(warnings);
   return ReplayResult{s, timing, sculpted};
 }
 
@@ -461,19 +467,24 @@ void run_check_timing(ReplayFlags f, const TimingBudget& budget, const std::stri
 
 }  // namespace
 
-void add_replay_command(CLI::App& app) {
-  auto flags = std::make_shared<ReplayFlags>();
+CLI::App* add_replay_subcommand(CLI::App& app, ReplayFlags* flags) {
   CLI::App* cmd = app.add_subcommand(
       "replay",
       "Replay a probe trace against a volume on a simulated 1 kHz clock and record "
       "the force the tool felt in an HDF5 session");
-  add_replay_flags(cmd, flags.get());
+  add_replay_flags(cmd, flags);
   cmd->add_option("--output,-o", flags->output, "Session file to write (.h5)")->required();
   cmd->add_flag("--realtime", flags->realtime,
                 "Pace the force loop by the wall clock on its own thread (relaxation on a "
                 "second thread) instead of the simulated lockstep clock");
   cmd->add_option("--sculpt-out", flags->sculpt_out,
                   "Write the sculpted volume as PREFIX.vdb and PREFIX.nrrd");
+  return cmd;
+}
+
+void add_replay_command(CLI::App& app) {
+  auto flags = std::make_shared<ReplayFlags>();
+  CLI::App* cmd = add_replay_subcommand(app, flags.get());
   cmd->callback([flags] { run_replay(*flags, command_line()); });
 }
 

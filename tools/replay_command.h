@@ -49,6 +49,9 @@ struct ReplayFlags {
   std::string volume;
   std::string output;
   bool quiet = false;
+  // The report on stdout after the run (and its warnings on stderr); the API's replay
+  // (api/replay.cc) prints nothing.
+  bool print_report = true;
   MappingFlags mapping;
   TraceFlags trace;
   TransformFlags transform;
@@ -98,6 +101,15 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
 /// `hapvox replay` (and check-timing, and sculpt through f.front_end): the run, the session,
 /// the report (tools/cmd_replay.cc).
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line);
+
+/// The voxel model's force options from the flags, checked as `hapvox replay` checks them
+/// (material, tool, plasticity, normal density, contact law): InputError naming the flag.
+engine::ToolForceOptions voxel_force_options(const ReplayFlags& f);
+
+/// Adds the `replay` subcommand with every flag of `hapvox replay` bound to `flags` (which
+/// must outlive the parse), and no callback: `hapvox replay` and the API (api/) parse the
+/// same flags.
+CLI::App* add_replay_subcommand(CLI::App& app, ReplayFlags* flags);
 
 /// Registers the replay's flags on `cmd` (the trace positional and --volume with
 /// `with_inputs`: sculpt names its volume positionally and has no trace).

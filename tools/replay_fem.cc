@@ -246,58 +246,61 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                                   series);
   if (!f.trace_out.empty()) write_recorded_trace(f.output, f.trace_out);
 
-  std::printf("%s %s on %s (proxy FEM, %s %s) -> %s\n", windowed ? "sculpted with" : "replayed",
-              windowed ? f.front_end->name.c_str()
-              : live   ? f.device.c_str()
-                       : f.trace_path.c_str(),
-              f.volume.c_str(), haptics::fem_solver_name(options.solver),
-              haptics::fem_interaction_name(options.interaction), f.output.c_str());
-  print_run_report(f, s, timing, device,
-                   "(contact solve on the FEM's snapshot, " +
-                       std::to_string(force.unconverged_solves()) + " unconverged)");
-  const engine::fem::ConformingMeshReport& mesh = model.proxy().report;
-  std::printf("  mesh             %d vertices, %d tets, dihedral %.1f..%.1f deg, %zu fixed DOFs\n",
-              mesh.vertex_count, mesh.tet_count, mesh.quality.min_dihedral_deg,
-              mesh.quality.max_dihedral_deg, model.fixed_dofs().size());
-  const std::string every = "every " + std::to_string(options.fem_every_ticks) + " ticks";
-  std::printf("  fem              %llu steps (%s), %zu vertices grabbed\n",
-              static_cast<unsigned long long>(fem.steps()),
-              windowed     ? (every + ", paced by the clock").c_str()
-              : f.realtime ? (std::to_string(options.fem_rate_hz) + " Hz thread").c_str()
-                           : every.c_str(),
-              fem.captured_vertices().size());
-  if (f.realtime && !windowed) print_stats_line("fem steps", timing.relax_slice);
-  for (const auto& remesh : fem.remeshes()) {
-    const engine::fem::ConformingMeshReport& r = remesh->model->proxy().report;
+  if (f.print_report) {
+    std::printf("%s %s on %s (proxy FEM, %s %s) -> %s\n", windowed ? "sculpted with" : "replayed",
+                windowed ? f.front_end->name.c_str()
+                : live   ? f.device.c_str()
+                         : f.trace_path.c_str(),
+                f.volume.c_str(), haptics::fem_solver_name(options.solver),
+                haptics::fem_interaction_name(options.interaction), f.output.c_str());
+    print_run_report(f, s, timing, device,
+                     "(contact solve on the FEM's snapshot, " +
+                         std::to_string(force.unconverged_solves()) + " unconverged)");
+    const engine::fem::ConformingMeshReport& mesh = model.proxy().report;
     std::printf(
-        "  remesh           %s at %.3f s: %d vertices, %d tets, built in %.0f ms, "
-        "taken over at %.3f s\n",
-        remesh->description.c_str(), time_s(remesh->change_tick) - time_s(0), r.vertex_count,
-        r.tet_count, 1e3 * remesh->build_s, time_s(remesh->taken_tick) - time_s(0));
-    if (options.interaction == haptics::FemInteraction::kGrab) {
-      if (remesh->captured_vertices > 0) {
-        std::printf("                   %d vertices grabbed on it\n", remesh->captured_vertices);
-      } else {
-        std::printf(
-            "                   the grab let go: no free vertex within reach on it "
-            "(its force went to zero at that step)\n");
+        "  mesh             %d vertices, %d tets, dihedral %.1f..%.1f deg, %zu fixed DOFs\n",
+        mesh.vertex_count, mesh.tet_count, mesh.quality.min_dihedral_deg,
+        mesh.quality.max_dihedral_deg, model.fixed_dofs().size());
+    const std::string every = "every " + std::to_string(options.fem_every_ticks) + " ticks";
+    std::printf("  fem              %llu steps (%s), %zu vertices grabbed\n",
+                static_cast<unsigned long long>(fem.steps()),
+                windowed     ? (every + ", paced by the clock").c_str()
+                : f.realtime ? (std::to_string(options.fem_rate_hz) + " Hz thread").c_str()
+                             : every.c_str(),
+                fem.captured_vertices().size());
+    if (f.realtime && !windowed) print_stats_line("fem steps", timing.relax_slice);
+    for (const auto& remesh : fem.remeshes()) {
+      const engine::fem::ConformingMeshReport& r = remesh->model->proxy().report;
+      std::printf(
+          "  remesh           %s at %.3f s: %d vertices, %d tets, built in %.0f ms, "
+          "taken over at %.3f s\n",
+          remesh->description.c_str(), time_s(remesh->change_tick) - time_s(0), r.vertex_count,
+          r.tet_count, 1e3 * remesh->build_s, time_s(remesh->taken_tick) - time_s(0));
+      if (options.interaction == haptics::FemInteraction::kGrab) {
+        if (remesh->captured_vertices > 0) {
+          std::printf("                   %d vertices grabbed on it\n", remesh->captured_vertices);
+        } else {
+          std::printf(
+              "                   the grab let go: no free vertex within reach on it "
+              "(its force went to zero at that step)\n");
+        }
       }
     }
+    if (fem.label_changes_not_taken() > 0) {
+      std::printf("  remesh           %zu label change(s) not taken over: the run ended first\n",
+                  fem.label_changes_not_taken());
+    }
+    std::printf("  paraview         %s (node displacements over time)\n", xdmf.c_str());
+    if (recorder) {
+      print_render_line(f, *recorder, timing);
+      std::printf("  proxy render     %d resamples of the deformed volume, %.1f ms each (%s)\n",
+                  recorder->resamples(),
+                  recorder->resample_ms_total() / std::max(1, recorder->resamples()),
+                  render::gradient_transform_name(recorder->setup().resample.gradient));
+    }
+    if (bridged != nullptr) print_bridge_lines(*bridged);
+    print_run_footer(s);
   }
-  if (fem.label_changes_not_taken() > 0) {
-    std::printf("  remesh           %zu label change(s) not taken over: the run ended first\n",
-                fem.label_changes_not_taken());
-  }
-  std::printf("  paraview         %s (node displacements over time)\n", xdmf.c_str());
-  if (recorder) {
-    print_render_line(f, *recorder, timing);
-    std::printf("  proxy render     %d resamples of the deformed volume, %.1f ms each (%s)\n",
-                recorder->resamples(),
-                recorder->resample_ms_total() / std::max(1, recorder->resamples()),
-                render::gradient_transform_name(recorder->setup().resample.gradient));
-  }
-  if (bridged != nullptr) print_bridge_lines(*bridged);
-  print_run_footer(s);
   return ReplayResult{s, timing, haptics::SculptSummary{}};
 }
 
