@@ -1,0 +1,87 @@
+// hapvox::Device: a replayed trace, or the application's own callback
+// (include/hapvox/device.h), behind the loops' device seam (haptics/device.h).
+
+#include <cmath>
+
+#include "api/internal.h"
+#include "engine/errors.h"
+#include "haptics/trace_device.h"
+
+namespace hapvox {
+
+namespace {
+
+/// The application's device: positions from its read callback, forces to its own.
+class CallbackDevice final : public haptics::Device {
+ public:
+  CallbackDevice(DeviceReadFn read, DeviceForceFn on_force, std::size_t ticks, double rate_hz,
+                 const haptics::DeviceTransform& transform)
+      : read_(std::move(read)),
+        on_force_(std::move(on_force)),
+        ticks_(ticks),
+        rate_hz_(rate_hz),
+        transform_(transform) {}
+
+  double rate_hz() const override { return rate_hz_; }
+  std::size_t tick_count() const override { return ticks_; }
+  const haptics::DeviceTransform& transform() const override { return transform_; }
+  void read(std::size_t tick, haptics::DeviceReading& reading) override {
+    const ToolSample sample = read_(tick);
+    reading.time_s = sample.time_s;
+    reading.position_mm = {sample.position_mm[0], sample.position_mm[1], sample.position_mm[2]};
+    reading.holding = sample.holding;
+    reading.sequence = static_cast<std::int64_t>(tick);
+  }
+  void send(std::size_t tick, const haptics::Vec3d& force_device_n, const haptics::TickRecord&,
+            bool) override {
+    if (on_force_) on_force_(tick, {force_device_n.x(), force_device_n.y(), force_device_n.z()});
+  }
+
+ private:
+  DeviceReadFn read_;
+  DeviceForceFn on_force_;
+  std::size_t ticks_;
+  double rate_hz_;
+  haptics::DeviceTransform transform_;
+};
+
+void check_rate(double rate_hz) {
+  if (!(rate_hz > 0.0) || rate_hz > 100e3) {
+    throw InputError("--rate-hz", "must be in (0, 100000]");
+  }
+}
+
+}  // namespace
+
+Device::Device(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Device::~Device() = default;
+Device::Device(Device&&) noexcept = default;
+Device& Device::operator=(Device&&) noexcept = default;
+
+Device Device::trace(const Trace& trace, const DeviceTransform& transform, double rate_hz,
+                     double max_gap_s) {
+  check_rate(rate_hz);
+  if (!(max_gap_s > 0.0)) throw InputError("--max-gap-s", "must be positive");
+  haptics::ResampleOptions options;
+  options.rate_hz = rate_hz;
+  options.max_gap_s = max_gap_s;
+  auto impl = std::make_unique<Impl>();
+  impl->device = std::make_unique<haptics::TraceDevice>(
+      haptics::resample(trace.impl().trace, options), api::device_transform(transform));
+  return Device(std::move(impl));
+}
+
+Device Device::callback(DeviceReadFn read, std::size_t ticks, double rate_hz,
+                        const DeviceTransform& transform, DeviceForceFn on_force) {
+  check_rate(rate_hz);
+  if (!read) throw InputError("device", "no read callback");
+  auto impl = std::make_unique<Impl>();
+  impl->device = std::make_unique<CallbackDevice>(std::move(read), std::move(on_force), ticks,
+                                                  rate_hz, api::device_transform(transform));
+  return Device(std::move(impl));
+}
+
+double Device::rate_hz() const { return impl_->device->rate_hz(); }
+std::size_t Device::ticks() const { return impl_->device->tick_count(); }
+
+}  // namespace hapvox
