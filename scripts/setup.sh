@@ -17,6 +17,8 @@ packages=(
   python3-nibabel mricron-data  # an independent NIfTI reader and real NIfTI files, for tests
   python3-pydicom  # DICOM test files and series written by another tool, for tests
   parallel  # sweep --hosts runs its rows through GNU parallel (GPL-3): a program run, never linked
+  pybind11-dev python3-dev python3-pytest  # the Python bindings (python/) and their tests
+  dpkg-dev  # cpack -G DEB: dpkg-shlibdeps works out the package's dependencies
   tetgen  # a program the mesh comparison runs (AGPL-3): never linked (docs/licences.md)
   "$@"
 )
