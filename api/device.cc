@@ -2,6 +2,7 @@
 // (include/hapvox/device.h), behind the loops' device seam (haptics/device.h).
 
 #include <cmath>
+#include <optional>
 
 #include "api/internal.h"
 #include "engine/errors.h"
@@ -26,7 +27,10 @@ class CallbackDevice final : public haptics::Device {
   std::size_t tick_count() const override { return ticks_; }
   const haptics::DeviceTransform& transform() const override { return transform_; }
   void read(std::size_t tick, haptics::DeviceReading& reading) override {
-    const ToolSample sample = read_(tick);
+    // Tick 0 may have been asked for already (first_tool_position_mm): not twice.
+    const ToolSample sample = tick == 0 && first_ ? *first_ : read_(tick);
+    first_.reset();
+    if (tick == 0) first_time_s_ = sample.time_s;
     reading.time_s = sample.time_s;
     reading.position_mm = {sample.position_mm[0], sample.position_mm[1], sample.position_mm[2]};
     reading.holding = sample.holding;
@@ -37,7 +41,18 @@ class CallbackDevice final : public haptics::Device {
     if (on_force_) on_force_(tick, {force_device_n.x(), force_device_n.y(), force_device_n.z()});
   }
 
+  /// The tool at tick 0, volume frame: asked for once, kept for the loop's read of tick 0.
+  haptics::Vec3d first_tool_position_mm() {
+    if (!first_) first_ = read_(0);
+    return transform_.apply(
+        {first_->position_mm[0], first_->position_mm[1], first_->position_mm[2]});
+  }
+
+  double first_time_s() const { return first_time_s_; }
+
  private:
+  std::optional<ToolSample> first_;
+  double first_time_s_ = 0.0;
   DeviceReadFn read_;
   DeviceForceFn on_force_;
   std::size_t ticks_;
@@ -66,8 +81,12 @@ Device Device::trace(const Trace& trace, const DeviceTransform& transform, doubl
   options.rate_hz = rate_hz;
   options.max_gap_s = max_gap_s;
   auto impl = std::make_unique<Impl>();
-  impl->device = std::make_unique<haptics::TraceDevice>(
+  auto device = std::make_unique<haptics::TraceDevice>(
       haptics::resample(trace.impl().trace, options), api::device_transform(transform));
+  haptics::TraceDevice* traced = device.get();
+  impl->first_tool_position_mm = [traced] { return traced->tool_position_mm(0); };
+  impl->first_time_s = [traced] { return traced->time_s(0); };
+  impl->device = std::move(device);
   return Device(std::move(impl));
 }
 
@@ -76,8 +95,12 @@ Device Device::callback(DeviceReadFn read, std::size_t ticks, double rate_hz,
   check_rate(rate_hz);
   if (!read) throw InputError("device", "no read callback");
   auto impl = std::make_unique<Impl>();
-  impl->device = std::make_unique<CallbackDevice>(std::move(read), std::move(on_force), ticks,
-                                                  rate_hz, api::device_transform(transform));
+  auto device = std::make_unique<CallbackDevice>(std::move(read), std::move(on_force), ticks,
+                                                 rate_hz, api::device_transform(transform));
+  CallbackDevice* called = device.get();
+  impl->first_tool_position_mm = [called] { return called->first_tool_position_mm(); };
+  impl->first_time_s = [called] { return called->first_time_s(); };
+  impl->device = std::move(device);
   return Device(std::move(impl));
 }
 

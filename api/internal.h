@@ -4,6 +4,7 @@
 // command line's own parser (tools/replay_command.h), so defaults, checks and error
 // messages are the CLI's.
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -13,6 +14,7 @@
 #include "engine/relax.h"
 #include "engine/tool_force.h"
 #include "haptics/device.h"
+#include "haptics/fem_model.h"
 #include "haptics/trace.h"
 #include "haptics/voxel_model.h"
 #include "hapvox/device.h"
@@ -33,12 +35,21 @@ struct Model::Impl {
   engine::ToolForceOptions force;  // resolved as `hapvox replay` resolves them
   engine::RelaxOptions relax;
   haptics::RelaxBudget budget;
-  // The model on the volume's own densities, for runs that do not change them (elastic).
+  double tool_radius_mm = 0.0;
+  // The voxel model on the volume's own densities, for runs that do not change them
+  // (elastic); null for the FEM model.
   std::unique_ptr<const engine::ToolForceModel> elastic;
+  // The proxy-FEM model (mesh, factored stiffness, options): constant, shared by its runs.
+  std::unique_ptr<const haptics::FemModel> fem;
 };
 
 struct Device::Impl {
   std::unique_ptr<haptics::Device> device;
+  /// Where the tool is at tick 0 (volume mm), before the run: the FEM model makes its first
+  /// snapshot there (a callback device is asked once; the loop's read of tick 0 reuses it).
+  std::function<haptics::Vec3d()> first_tool_position_mm;
+  /// The time of tick 0, once a run has read it.
+  std::function<double()> first_time_s;
 };
 
 namespace api {

@@ -51,7 +51,12 @@ RunSummary run(const Model& model, Device& device, const LoopOptions& options, b
   if (!realtime && dev.tick_count() == haptics::Device::kUnbounded) {
     throw InputError("device", "a lockstep run needs a device with a known tick count");
   }
-  api::VoxelRun state(model.impl(), realtime);
+  api::ModelRun state(model.impl(), realtime);
+  double t0_s = 0.0;  // the time of tick 0 (FEM steps are timed from it)
+  if (dev.tick_count() > 0) {
+    // The FEM's first snapshot where the tool starts (as replay_fem.cc makes it).
+    state.start(device.impl().first_tool_position_mm());
+  }
   std::unique_ptr<haptics::SessionWriter> session;
   if (!options.session_path.empty()) {
     session = std::make_unique<haptics::SessionWriter>(options.session_path);
@@ -59,7 +64,6 @@ RunSummary run(const Model& model, Device& device, const LoopOptions& options, b
     session->set_attribute("rate_hz", dev.rate_hz());
     session->set_attribute("max_force_n", limits.max_force_n);
     session->set_attribute("ramp_in_s", limits.ramp_in_s);
-    state.force().write_attributes(*session);
   }
   haptics::ReplaySummary s;
   haptics::SculptSummary sculpted;
@@ -72,21 +76,23 @@ RunSummary run(const Model& model, Device& device, const LoopOptions& options, b
       realtime_options.scheduler.realtime_policy = options.realtime_priority;
       realtime_options.scheduler.pin_cpu = options.cpu >= 0;
       realtime_options.scheduler.cpu = options.cpu;
-      s = haptics::replay_realtime(state.force(), state.relaxation(), dev, limits, session.get(),
+      s = haptics::replay_realtime(state.force(), state.background(), dev, limits, session.get(),
                                    {}, &sculpted, &timing, realtime_options);
     } else {
-      s = haptics::replay_lockstep(state.force(), state.relaxation(), dev, limits, session.get(),
+      s = haptics::replay_lockstep(state.force(), state.background(), dev, limits, session.get(),
                                    {}, &sculpted);
+    }
+    if (session) {
+      if (s.ticks > 0) t0_s = device.impl().first_time_s();
+      session->set_attribute("summary_ticks", static_cast<std::int64_t>(s.ticks));
+      session->set_attribute("summary_peak_force_n", s.peak_force_n);
+      state.write_session(*session, t0_s, dev.rate_hz());
     }
   } catch (...) {
     if (session) session->abandon();
     throw;
   }
-  if (session) {
-    session->set_attribute("summary_ticks", static_cast<std::int64_t>(s.ticks));
-    session->set_attribute("summary_peak_force_n", s.peak_force_n);
-    session->close();
-  }
+  if (session) session->close();
   return summary_of(s, sculpted, realtime ? &timing : nullptr);
 }
 
@@ -138,7 +144,7 @@ struct ForceStage::Impl {
   haptics::DeviceLimits limits;
   SteppedDevice device;
   haptics::ForceRamp ramp;
-  api::VoxelRun state;
+  api::ModelRun state;
   std::size_t tick = 0;
 };
 
@@ -159,13 +165,17 @@ ForceTick ForceStage::step(const ToolSample& sample) noexcept {
   reading.position_mm = {sample.position_mm[0], sample.position_mm[1], sample.position_mm[2]};
   reading.holding = sample.holding;
   // The tick of replay_lockstep (haptics/replay.cc), in its order: the force stage, then the
-  // background stage's fixed work for the tick.
-  haptics::RelaxationStage* relaxation = s.state.relaxation();
-  if (s.tick == 0 && relaxation != nullptr) relaxation->begin();
+  // background stage's fixed work for the tick. The FEM stage is made at the first tick,
+  // where the tool is (its first snapshot; a grab holds what lies within reach of it).
+  if (s.tick == 0) {
+    s.state.start(s.device.transform().apply(reading.position_mm));
+    if (s.state.background() != nullptr) s.state.background()->begin();
+  }
+  haptics::BackgroundStage* background = s.state.background();
   haptics::TickRecord row;
   const bool fault =
       haptics::run_force_stage(s.state.force(), s.device, s.tick, s.limits, s.ramp, row);
-  if (relaxation != nullptr) relaxation->run_lockstep_tick(s.tick, row, nullptr);
+  if (background != nullptr) background->run_lockstep_tick(s.tick, row, nullptr);
   ++s.tick;
   ForceTick out;
   out.force_n = arr(row.force_n);

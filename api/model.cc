@@ -4,6 +4,7 @@
 
 #include "api/internal.h"
 #include "engine/errors.h"
+#include "tools/fem_options.h"
 
 namespace hapvox {
 
@@ -16,9 +17,7 @@ Model Model::voxel(const Volume& volume, const ModelOptions& options) {
   cli::ReplayFlags f;
   const std::unique_ptr<CLI::App> parser = api::parse_replay_flags(args, f);
   if (f.model == "fem") {
-    throw InputError("--model",
-                     "fem needs the volume file and its labels: run it with "
-                     "hapvox::replay (Model::voxel makes the voxel model)");
+    throw InputError("--model", "Model::voxel makes the voxel model: use Model::fem");
   }
   if (f.model != "voxel") {
     throw InputError("--model", "unknown model '" + f.model + "' (voxel or fem)");
@@ -41,12 +40,51 @@ Model Model::voxel(const Volume& volume, const ModelOptions& options) {
   haptics::RelaxBudget budget;
   budget.relax_voxels = f.relax_voxels_per_tick;
   auto elastic = std::make_unique<const engine::ToolForceModel>(volume.impl().field, force);
-  return Model(std::make_shared<const Impl>(
-      Impl{volume, options, force, relax, budget, std::move(elastic)}));
+  return Model(std::make_shared<const Impl>(Impl{volume, options, force, relax, budget,
+                                                 0.5 * force.tool.diameter_mm, std::move(elastic),
+                                                 nullptr}));
+}
+
+Model Model::fem(const Volume& volume, const ModelOptions& options) {
+  if (volume.source() == "array") {
+    throw InputError("array",
+                     "the proxy-FEM model reads its labels from a volume file or "
+                     "generator: save the array (Volume::save) and load that");
+  }
+  ModelOptions fem_options = options;
+  fem_options.model = "fem";
+  std::vector<std::string> args = {"replay", "(api)", "--volume", volume.source(), "-o", "(api)"};
+  const std::vector<std::string> flags = api::model_flags(fem_options);
+  args.insert(args.end(), flags.begin(), flags.end());
+  cli::ReplayFlags f;
+  const std::unique_ptr<CLI::App> parser = api::parse_replay_flags(args, f);
+  // `hapvox replay --model fem`'s checks (tools/replay_fem.cc), in its words.
+  if (f.plastic) {
+    throw InputError("--plastic", "needs --model voxel (the FEM model does not sculpt)");
+  }
+  if (f.fem_mesh.materials.empty()) throw InputError("--materials", "--model fem needs one");
+  if (!f.relabels.empty()) {
+    throw InputError("--relabel", "needs a trace (its times are trace times): use hapvox::replay");
+  }
+  if (!f.fem_run.incision.empty()) {
+    throw InputError("--incision", "cuts in a replay: use hapvox::replay");
+  }
+  const haptics::FemOptions fem = f.fem_run.resolve(f.force.options.tool.diameter_mm);
+  const cli::ProxyInputs inputs = cli::proxy_inputs_from_cli(volume.source(), f.fem_mesh, {});
+  auto model = std::make_unique<const haptics::FemModel>(
+      engine::proxy::build_proxy_mesh(inputs.labels, inputs.materials, inputs.mesh), fem);
+  return Model(std::make_shared<const Impl>(Impl{volume,
+                                                 fem_options,
+                                                 f.force.options,
+                                                 {},
+                                                 {},
+                                                 fem.tool_radius_mm,
+                                                 nullptr,
+                                                 std::move(model)}));
 }
 
 const Volume& Model::volume() const { return impl_->volume; }
 const ModelOptions& Model::options() const { return impl_->options; }
-double Model::tool_radius_mm() const { return 0.5 * impl_->force.tool.diameter_mm; }
+double Model::tool_radius_mm() const { return impl_->tool_radius_mm; }
 
 }  // namespace hapvox

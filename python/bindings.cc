@@ -263,6 +263,21 @@ PYBIND11_MODULE(_hapvox, m) {
           py::arg("poisson_ratio") = py::none(), py::arg("tool_diameter_mm") = py::none(),
           py::arg("contact_law") = "", py::arg("plastic") = false,
           py::arg("yield_stress_pa") = py::none(), py::arg("flags") = std::vector<std::string>{})
+      .def_static(
+          "fem",
+          [](const hapvox::Volume& volume, const std::string& materials, const std::string& labels,
+             std::optional<double> youngs_modulus_pa, std::optional<double> poisson_ratio,
+             std::optional<double> tool_diameter_mm, const std::vector<std::string>& flags) {
+            const hapvox::ModelOptions o =
+                model_options("fem", youngs_modulus_pa, poisson_ratio, tool_diameter_mm, "", false,
+                              std::nullopt, materials, labels, flags);
+            py::gil_scoped_release release;  // meshing and factoring take a while
+            return hapvox::Model::fem(volume, o);
+          },
+          py::arg("volume"), py::arg("materials"), py::arg("labels") = "",
+          py::arg("youngs_modulus_pa") = py::none(), py::arg("poisson_ratio") = py::none(),
+          py::arg("tool_diameter_mm") = py::none(), py::arg("flags") = std::vector<std::string>{},
+          "Nakao's proxy-FEM model of the volume's labelled regions (its materials file)")
       .def_property_readonly("tool_radius_mm", &hapvox::Model::tool_radius_mm)
       .def_property_readonly("volume", &hapvox::Model::volume);
 

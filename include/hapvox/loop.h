@@ -49,7 +49,8 @@ struct RunSummary {
 };
 
 /// Runs every tick of `device` through `model` on a simulated clock. Throws InputError on a
-/// bad option or a device with no end.
+/// bad option or a device with no end. The FEM model's first snapshot is made where the
+/// device's tick 0 puts the tool (a callback device is asked for it once, before the run).
 RunSummary run_lockstep(const Model& model, Device& device, const LoopOptions& options = {});
 
 /// Runs `device` in realtime: each tick at its deadline on a force thread (the calling
@@ -70,9 +71,11 @@ struct ForceTick {
 };
 
 /// One tick per call from your own loop, in tick order: tick k is the k-th call. Made once
-/// (it allocates here); for an elastic model step() then allocates nothing, takes no lock
-/// and throws nothing. A sculpting model's step() also runs the tick's bounded relaxation
-/// work after the force, as a lockstep replay does.
+/// (it allocates here); for an elastic voxel model step() then allocates nothing, takes no
+/// lock and throws nothing. After the force, step() runs the tick's background work as a
+/// lockstep replay does: a sculpting model's bounded relaxation; the FEM model's FEM step
+/// every fem_every_ticks ticks (its first step() makes the FEM stage where the tool is:
+/// the first snapshot, and what a grab holds).
 class ForceStage {
  public:
   /// `rate_hz` is your loop's rate (it sets the ramp's slope).

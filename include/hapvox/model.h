@@ -6,7 +6,7 @@
 //          with the clay's mass conserved.
 //   fem    Nakao et al.: an adaptive tetrahedral proxy mesh of the labelled volume with
 //          linear or co-rotational FEM; a materials file gives each label E, nu and whether
-//          it is fixed. Replays only (hapvox::replay); not yet stepped by ForceStage.
+//          it is fixed; the tool presses or grabs (--interaction).
 //
 // Every option left unset takes `hapvox replay`'s default, and every value is checked as
 // the command line checks it: a bad one throws InputError naming the flag, with the CLI's
@@ -41,9 +41,18 @@ struct ModelOptions {
 /// so one Model serves many runs, one after another or on several threads.
 class Model {
  public:
-  /// The voxel model on `volume`. Throws InputError for a bad option, and for "fem" (which
-  /// needs a volume file: use hapvox::replay) or an unknown model.
+  /// The voxel model on `volume`. Throws InputError for a bad option, for materials by
+  /// tissue (those run through hapvox::replay) and for options.model "fem" (Model::fem).
   static Model voxel(const Volume& volume, const ModelOptions& options = {});
+
+  /// The proxy-FEM model (options.model is taken as "fem"): the labels of the file or
+  /// generator `volume` was loaded from (a label volume with options.labels, else the
+  /// materials' intensity ranges) meshed and its stiffness factored here, once. The mesh is
+  /// not refined along a tool path (none is known ahead: `hapvox replay --no-tool-refine`).
+  /// Needs options.materials. Throws InputError for a bad option, a volume made from an
+  /// array (save it and load the file), and --relabel or --incision (hapvox::replay runs
+  /// those).
+  static Model fem(const Volume& volume, const ModelOptions& options);
 
   const Volume& volume() const;
   const ModelOptions& options() const;

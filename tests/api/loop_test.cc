@@ -144,6 +144,69 @@ TEST(ApiLoop, ARealtimeRunComputesTheLockstepForces) {
       same_bits(realtime.dataset("tool_position_mm"), lockstep.dataset("tool_position_mm")));
 }
 
+// Nakao's Fig. 6 on a coarse mesh: the engine's right end grabbed, its left part fixed by the
+// materials file. The command line refines the mesh along the trace's path unless told not
+// to; a Model knows no path ahead.
+const char* const kGrabFlags[] = {"--interaction",     "grab",  "--coupling-n-per-mm", "1000",
+                                  "--max-force-n",     "10000", "--spacing-mm",        "16",
+                                  "--boundary-levels", "0"};
+
+Model grab_model() {
+  ModelOptions options;
+  options.materials = source_path("data/engine_grab.toml");
+  options.tool_diameter_mm = 24.0;
+  options.flags.assign(std::begin(kGrabFlags), std::end(kGrabFlags));
+  return Model::fem(Volume::load(source_path(kEngineCt)), options);
+}
+
+TEST(ApiForceStage, StepsTheFemModelAsALockstepReplayDoes) {
+  std::string flags = "--model fem --no-tool-refine --tool-diameter-mm 24 --materials " +
+                      source_path("data/engine_grab.toml");
+  for (const char* flag : kGrabFlags) flags += std::string(" ") + flag;
+  const std::string dir = scratch_dir();
+  const Session cli = cli_replay(dir, "traces/engine_grab.csv", kEngineCt, flags);
+  const Model model = grab_model();
+  EXPECT_EQ(model.tool_radius_mm(), 12.0);
+  const Trace trace = Trace::load(source_path("traces/engine_grab.csv"));
+  LoopOptions options;
+  options.max_force_n = 10000.0;
+  ForceStage stage(model, options);
+  std::vector<ForceTick> ticks;
+  for (const ToolSample& s : trace.resampled()) ticks.push_back(stage.step(s));
+  EXPECT_TRUE(same_bits(forces_of(ticks), cli.dataset("force_n")));
+  // The grab pulled: a force, and the mesh moved.
+  double peak = 0.0;
+  for (double f : cli.dataset("force_n").values) peak = std::max(peak, std::abs(f));
+  EXPECT_GT(peak, 1.0);
+
+  // run_lockstep writes the FEM's steps as the replay does.
+  options.session_path = dir + "/api.h5";
+  Device device = Device::trace(trace);
+  run_lockstep(model, device, options);
+  const Session api = Session::open(options.session_path);
+  EXPECT_TRUE(same_bits(api.dataset("force_n"), cli.dataset("force_n")));
+  EXPECT_TRUE(same_bits(api.dataset("fem/displacement_mm"), cli.dataset("fem/displacement_mm")));
+  EXPECT_TRUE(same_bits(api.dataset("fem/step_time_s"), cli.dataset("fem/step_time_s")));
+}
+
+TEST(ApiModel, TheFemModelsBadInputIsTheCommandLines) {
+  const Volume ct = Volume::load(source_path(kEngineCt));
+  EXPECT_EQ(input_error_of([&] { Model::fem(ct, {}); }), "--materials: --model fem needs one");
+  ModelOptions options;
+  options.materials = source_path("data/engine_grab.toml");
+  options.plastic = true;
+  EXPECT_EQ(input_error_of([&] { Model::fem(ct, options); }),
+            "--plastic: needs --model voxel (the FEM model does not sculpt)");
+  const Volume array = Volume::from_densities({1.0f}, {1, 1, 1});
+  EXPECT_EQ(input_error_of([&] { Model::fem(array, {}); }),
+            "array: the proxy-FEM model reads its labels from a volume file or generator: save "
+            "the array (Volume::save) and load that");
+  options.plastic = false;
+  options.model = "fem";
+  EXPECT_EQ(input_error_of([&] { Model::voxel(ct, options); }),
+            "--model: Model::voxel makes the voxel model: use Model::fem");
+}
+
 TEST(ApiLoop, BadLoopOptionsAreTheCommandLinesErrors) {
   const Model model = Model::voxel(Volume::load("block"));
   Device device = Device::trace(Trace::load(source_path(kEnginePress)));

@@ -137,6 +137,27 @@ def test_stepping_the_force_stage_in_a_python_loop_gives_the_replays_forces(tmp_
     assert same_bits(hapvox.ForceStage(model).step_many(positions), replayed)
 
 
+def test_the_fem_model_steps_as_its_replay(tmp_path):
+    # Nakao's Fig. 6 on a coarse mesh; the command line refines along the trace's path unless
+    # told not to (a Model knows no path ahead).
+    grab = os.path.join(SOURCE, "traces", "engine_grab.csv")
+    materials = os.path.join(SOURCE, "data", "engine_grab.toml")
+    flags = ["--interaction", "grab", "--coupling-n-per-mm", "1000", "--spacing-mm", "16",
+             "--boundary-levels", "0"]
+    out = str(tmp_path / "fem.h5")
+    run = cli("replay", grab, "--volume", CT, "-q", "-o", out, "--model", "fem", "--materials",
+              materials, "--tool-diameter-mm", "24", "--max-force-n", "10000",
+              "--no-tool-refine", *flags)
+    assert run.returncode == 0, run.stderr
+    model = hapvox.Model.fem(hapvox.Volume.load(CT), materials=materials, tool_diameter_mm=24,
+                             flags=flags)
+    _, positions, _ = hapvox.Trace.load(grab).resampled()
+    forces = hapvox.ForceStage(model, max_force_n=10000).step_many(positions)
+    with h5py.File(out, "r") as f:
+        assert same_bits(forces, f["force_n"][...])
+    assert np.abs(forces).max() > 1.0
+
+
 def test_a_python_device_callback_drives_a_lockstep_run(tmp_path):
     model = hapvox.Model.voxel(hapvox.Volume.load("block"), tool_diameter_mm=4)
     lo, hi = np.array(model.volume.world_min_mm), np.array(model.volume.world_max_mm)
