@@ -4,7 +4,7 @@
 #   1. `cmake --install` into a fresh prefix: the installed headers compile alone without
 #      dependency headers (tests/api/check_headers.sh), examples/embed builds against the
 #      prefix with find_package(hapvox), and its own 1 kHz loop's forces equal a lockstep
-#      replay's bit for bit;
+#      replay's bit for bit, linked to the shared libraries and again to the static ones;
 #   2. the Debian package (cpack -G DEB): its dependencies resolve in Debian's archive
 #      (apt-get --simulate), it unpacks into a clean root where `hapvox --version` runs,
 #      the embed example builds and agrees again, and the installed Python module imports.
@@ -24,8 +24,8 @@ volume=$root/data/engine_256x256x128_uint8.nrrd
 trace=$root/traces/engine_press.csv
 "$build/tools/hapvox" replay "$trace" --volume "$volume" -q -o "$work/press.h5" >/dev/null
 
-embed_against() {  # PREFIX NAME: builds examples/embed against PREFIX and compares
-  cmake -S "$root/examples/embed" -B "$work/$2" -DCMAKE_PREFIX_PATH="$1" >"$work/$2.log" 2>&1 &&
+embed_against() {  # PREFIX NAME [CMAKE ARGS]: builds examples/embed against PREFIX, compares
+  cmake -S "$root/examples/embed" -B "$work/$2" -DCMAKE_PREFIX_PATH="$1" "${@:3}" >"$work/$2.log" 2>&1 &&
     cmake --build "$work/$2" >>"$work/$2.log" 2>&1 || {
     tail -n 40 "$work/$2.log"
     echo "package_check: examples/embed did not build against $1" >&2
@@ -38,6 +38,8 @@ echo "-- cmake --install into $work/prefix"
 cmake --install "$build" --prefix "$work/prefix" >/dev/null
 bash "$root/tests/api/check_headers.sh" "${CXX:-c++}" "$work/prefix/include"
 embed_against "$work/prefix" embed-prefix
+echo "-- the same with hapvox's static libraries (hapvox::haptics_static)"
+embed_against "$work/prefix" embed-static -DEMBED_STATIC=ON
 
 echo "-- cpack -G DEB"
 (cd "$build" && cpack -G DEB >"$work/cpack.log" 2>&1) || {
