@@ -111,7 +111,8 @@ TEST(ApiLoop, ACallbackDeviceGetsEachForceInItsOwnFrame) {
   options.session_path = scratch_dir() + "/cb.h5";
   run_lockstep(model, device, options);
   ASSERT_EQ(sent.size(), ticks);
-  const Dataset& force = Session::open(options.session_path).dataset("force_n");
+  const Session session = Session::open(options.session_path);
+  const Dataset& force = session.dataset("force_n");
   // The block pushes back up (+z in the volume): +y in the device frame.
   EXPECT_GT(force.values[3 * (ticks - 1) + 2], 0.1);
   for (std::size_t k = 0; k < ticks; ++k) {
