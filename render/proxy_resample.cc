@@ -7,9 +7,9 @@
 #include <functional>
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 
 #include "engine/check.h"
+#include "engine/parallel.h"
 
 namespace hapvox::render {
 namespace {
@@ -236,7 +236,7 @@ ResampleStats ProxyResampler::update(const Eigen::Ref<const Eigen::VectorXd>& di
   stats.moved_tets = moved_tets_.size();
   // In parallel: slabs of one brick layer each, every voxel written by its slab alone, the
   // tets taken in index order within each, so the result does not depend on the threads.
-  stats.resampled_voxels = tbb::parallel_reduce(
+  stats.resampled_voxels = engine::parallel_reduce(
       tbb::blocked_range<int>(0, bricks_.z()), std::size_t{0},
       [&](const tbb::blocked_range<int>& layers, std::size_t count) {
         for (int layer = layers.begin(); layer != layers.end(); ++layer) {
@@ -250,7 +250,7 @@ ResampleStats ProxyResampler::update(const Eigen::Ref<const Eigen::VectorXd>& di
 
   // Settle the bricks touched now (in parallel, each brick its own), restore those touched
   // only before.
-  stats.vacated_voxels = tbb::parallel_reduce(
+  stats.vacated_voxels = engine::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, bricks_now_.size()), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& range, std::size_t vacated) {
         for (std::size_t k = range.begin(); k != range.end(); ++k) {
