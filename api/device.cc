@@ -60,12 +60,6 @@ class CallbackDevice final : public haptics::Device {
   haptics::DeviceTransform transform_;
 };
 
-void check_rate(double rate_hz) {
-  if (!(rate_hz > 0.0) || rate_hz > 100e3) {
-    throw InputError("--rate-hz", "must be in (0, 100000]");
-  }
-}
-
 }  // namespace
 
 Device::Device(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -75,14 +69,10 @@ Device& Device::operator=(Device&&) noexcept = default;
 
 Device Device::trace(const Trace& trace, const DeviceTransform& transform, double rate_hz,
                      double max_gap_s) {
-  check_rate(rate_hz);
-  if (!(max_gap_s > 0.0)) throw InputError("--max-gap-s", "must be positive");
-  haptics::ResampleOptions options;
-  options.rate_hz = rate_hz;
-  options.max_gap_s = max_gap_s;
+  const haptics::ResampleOptions clock = api::loop_clock(rate_hz, max_gap_s);
   auto impl = std::make_unique<Impl>();
-  auto device = std::make_unique<haptics::TraceDevice>(
-      haptics::resample(trace.impl().trace, options), api::device_transform(transform));
+  auto device = std::make_unique<haptics::TraceDevice>(haptics::resample(trace.impl().trace, clock),
+                                                       api::device_transform(transform));
   haptics::TraceDevice* traced = device.get();
   impl->first_tool_position_mm = [traced] { return traced->tool_position_mm(0); };
   impl->first_time_s = [traced] { return traced->time_s(0); };
@@ -92,7 +82,7 @@ Device Device::trace(const Trace& trace, const DeviceTransform& transform, doubl
 
 Device Device::callback(DeviceReadFn read, std::size_t ticks, double rate_hz,
                         const DeviceTransform& transform, DeviceForceFn on_force) {
-  check_rate(rate_hz);
+  (void)api::loop_clock(rate_hz);
   if (!read) throw InputError("device", "no read callback");
   auto impl = std::make_unique<Impl>();
   auto device = std::make_unique<CallbackDevice>(std::move(read), std::move(on_force), ticks,

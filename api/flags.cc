@@ -66,6 +66,26 @@ std::unique_ptr<CLI::App> parse_replay_flags(const std::vector<std::string>& arg
   return app;
 }
 
+haptics::ResampleOptions loop_clock(double rate_hz, double max_gap_s) {
+  cli::TraceFlags flags;
+  flags.rate_hz = rate_hz;
+  flags.max_gap_s = max_gap_s;
+  (void)flags.columns();
+  haptics::ResampleOptions options;
+  options.rate_hz = rate_hz;
+  options.max_gap_s = max_gap_s;
+  return options;
+}
+
+std::unique_ptr<CLI::App> parse_model_flags(const Volume& volume, const ModelOptions& options,
+                                            cli::ReplayFlags& flags) {
+  // The positional trace and -o only fill required slots.
+  std::vector<std::string> args = {"replay", "(api)", "--volume", volume.source(), "-o", "(api)"};
+  const std::vector<std::string> model = model_flags(options);
+  args.insert(args.end(), model.begin(), model.end());
+  return parse_replay_flags(args, flags);
+}
+
 std::string command_text(const std::vector<std::string>& args) {
   std::string text = "hapvox";
   for (const std::string& arg : args) text += " " + cli::shell_quoted(arg);

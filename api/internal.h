@@ -71,6 +71,16 @@ std::unique_ptr<CLI::App> parse_replay_flags(const std::vector<std::string>& arg
 /// The command line `args` stand for, for the session's command_line attribute.
 std::string command_text(const std::vector<std::string>& args);
 
+/// A loop's clock: --rate-hz and --max-gap-s checked as the command line checks them
+/// (cli::TraceFlags::columns), as resampling options.
+haptics::ResampleOptions loop_clock(double rate_hz,
+                                    double max_gap_s = haptics::ResampleOptions{}.max_gap_s);
+
+/// Parses a model's options (ModelOptions as flags, behind --volume SOURCE) with `hapvox
+/// replay`'s parser into `flags`, as parse_replay_flags. Nothing is read.
+std::unique_ptr<CLI::App> parse_model_flags(const Volume& volume, const ModelOptions& options,
+                                            cli::ReplayFlags& flags);
+
 /// The device-to-volume transform, checked as --scale, --rotate-deg and --offset-mm are.
 haptics::DeviceTransform device_transform(const DeviceTransform& transform);
 

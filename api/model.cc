@@ -9,13 +9,9 @@
 namespace hapvox {
 
 Model Model::voxel(const Volume& volume, const ModelOptions& options) {
-  // The options go through `hapvox replay`'s parser and checks (the positional trace and
-  // --volume only fill required slots: nothing is read).
-  std::vector<std::string> args = {"replay", "(api)", "--volume", volume.source(), "-o", "(api)"};
-  const std::vector<std::string> flags = api::model_flags(options);
-  args.insert(args.end(), flags.begin(), flags.end());
+  // The options go through `hapvox replay`'s parser and checks.
   cli::ReplayFlags f;
-  const std::unique_ptr<CLI::App> parser = api::parse_replay_flags(args, f);
+  const std::unique_ptr<CLI::App> parser = api::parse_model_flags(volume, options, f);
   if (f.model == "fem") {
     throw InputError("--model", "Model::voxel makes the voxel model: use Model::fem");
   }
@@ -29,9 +25,6 @@ Model Model::voxel(const Volume& volume, const ModelOptions& options) {
   }
   for (const CLI::Option* option : f.fem_only_options) {
     if (option->count() > 0) throw InputError(option->get_name(), "needs --model fem");
-  }
-  if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
-    throw InputError("--relax-tolerance", "must lie in [0, 10]");
   }
   const engine::ToolForceOptions force = cli::voxel_force_options(f);
   engine::RelaxOptions relax;
@@ -53,11 +46,8 @@ Model Model::fem(const Volume& volume, const ModelOptions& options) {
   }
   ModelOptions fem_options = options;
   fem_options.model = "fem";
-  std::vector<std::string> args = {"replay", "(api)", "--volume", volume.source(), "-o", "(api)"};
-  const std::vector<std::string> flags = api::model_flags(fem_options);
-  args.insert(args.end(), flags.begin(), flags.end());
   cli::ReplayFlags f;
-  const std::unique_ptr<CLI::App> parser = api::parse_replay_flags(args, f);
+  const std::unique_ptr<CLI::App> parser = api::parse_model_flags(volume, fem_options, f);
   // `hapvox replay --model fem`'s checks (tools/replay_fem.cc), in its words.
   if (f.plastic) {
     throw InputError("--plastic", "needs --model voxel (the FEM model does not sculpt)");

@@ -54,14 +54,8 @@ std::vector<std::array<double, 3>> Trace::position_mm() const {
 }
 
 std::vector<ToolSample> Trace::resampled(double rate_hz, double max_gap_s) const {
-  cli::TraceFlags flags;  // --rate-hz and --max-gap-s as the CLI checks them
-  flags.rate_hz = rate_hz;
-  flags.max_gap_s = max_gap_s;
-  (void)flags.columns();
-  haptics::ResampleOptions options;
-  options.rate_hz = rate_hz;
-  options.max_gap_s = max_gap_s;
-  const haptics::ResampledTrace r = haptics::resample(impl_->trace, options);
+  const haptics::ResampledTrace r =
+      haptics::resample(impl_->trace, api::loop_clock(rate_hz, max_gap_s));
   std::vector<ToolSample> out(r.time_s.size());
   for (std::size_t k = 0; k < out.size(); ++k) {
     out[k].time_s = r.time_s[k];

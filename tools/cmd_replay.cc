@@ -25,6 +25,9 @@ engine::ToolForceOptions voxel_force_options(const ReplayFlags& f) {
   if (!std::isfinite(diameter) || diameter <= 0.0) {
     throw InputError("--tool-diameter-mm", "must be positive");
   }
+  if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
+    throw InputError("--relax-tolerance", "must lie in [0, 10]");
+  }
   if (!(f.normal_density > 0.0 && f.normal_density <= 1.0)) {
     throw InputError("--normal-density", "must lie in (0, 1] (a fraction of density 1)");
   }
@@ -91,9 +94,6 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
                               {prefix.empty() ? "" : prefix + ".nrrd", "--sculpt-out", ""},
                               {f.render_dir, "--render-dir", kFrameFileNames}},
                              inputs);
-  if (!(f.relax_tolerance >= 0.0 && f.relax_tolerance <= 10.0)) {
-    throw InputError("--relax-tolerance", "must lie in [0, 10]");
-  }
   // Materials by tissue: the labels give each voxel its density and material.
   std::optional<engine::labels::TissueVolume> tissue;
   if (by_tissue) {

@@ -103,7 +103,8 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line);
 
 /// The voxel model's force options from the flags, checked as `hapvox replay` checks them
-/// (material, tool, plasticity, normal density, contact law): InputError naming the flag.
+/// (material, tool, plasticity, relaxation tolerance, normal density, contact law):
+/// InputError naming the flag.
 engine::ToolForceOptions voxel_force_options(const ReplayFlags& f);
 
 /// Adds the `replay` subcommand with every flag of `hapvox replay` bound to `flags` (which
