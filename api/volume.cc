@@ -6,6 +6,7 @@
 
 #include "api/volume_impl.h"
 #include "engine/errors.h"
+#include "engine/io/intensity.h"
 #include "engine/volume_io.h"
 #include "hapvox/volume.h"
 
@@ -15,24 +16,12 @@ namespace {
 
 // --threshold / --window, with the command line's words (tools/cli.cc: MappingFlags).
 engine::IntensityMapping mapping_of(const IntensityOptions& options) {
-  engine::IntensityMapping mapping;
   if (options.threshold && options.window) {
     throw InputError("--window", "cannot be combined with --threshold");
   }
-  if (options.threshold) {
-    if (!std::isfinite(*options.threshold)) throw InputError("--threshold", "must be finite");
-    mapping.kind = engine::IntensityMapping::Kind::kThreshold;
-    mapping.low = *options.threshold;
-  } else if (options.window) {
-    mapping.kind = engine::IntensityMapping::Kind::kWindow;
-    mapping.low = (*options.window)[0];
-    mapping.high = (*options.window)[1];
-    if (!std::isfinite(mapping.low) || !std::isfinite(mapping.high)) {
-      throw InputError("--window", "must be finite");
-    }
-    if (mapping.high <= mapping.low) throw InputError("--window", "HI must exceed LO");
-  }
-  return mapping;
+  if (options.threshold) return engine::io::threshold_mapping(*options.threshold);
+  if (options.window) return engine::io::window_mapping((*options.window)[0], (*options.window)[1]);
+  return {};
 }
 
 Eigen::Vector3d vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }

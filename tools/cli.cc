@@ -16,6 +16,7 @@
 #include <system_error>
 
 #include "engine/errors.h"
+#include "engine/io/intensity.h"
 #include "render/transfer_function.h"
 
 namespace hapvox::cli {
@@ -110,19 +111,16 @@ void MappingFlags::add_to(CLI::App& app) {
 }
 
 engine::IntensityMapping MappingFlags::resolve() const {
-  engine::IntensityMapping mapping;
   if (!threshold.empty()) {
-    mapping.kind = engine::IntensityMapping::Kind::kThreshold;
-    mapping.low = parse_number(threshold, "--threshold");
-  } else if (!window.empty()) {
+    return engine::io::threshold_mapping(parse_number(threshold, "--threshold"));
+  }
+  if (!window.empty()) {
     const auto parts = split(window, ',');
     if (parts.size() != 2) throw InputError("--window", "expected LO,HI, got '" + window + "'");
-    mapping.kind = engine::IntensityMapping::Kind::kWindow;
-    mapping.low = parse_number(parts[0], "--window");
-    mapping.high = parse_number(parts[1], "--window");
-    if (mapping.high <= mapping.low) throw InputError("--window", "HI must exceed LO");
+    return engine::io::window_mapping(parse_number(parts[0], "--window"),
+                                      parse_number(parts[1], "--window"));
   }
-  return mapping;
+  return {};
 }
 
 void TraceFlags::add_to(CLI::App& app) {

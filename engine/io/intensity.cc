@@ -46,6 +46,24 @@ double otsu_threshold(const RawVolume& raw) {
   return lo + (best_bin + 1) * width;
 }
 
+IntensityMapping threshold_mapping(double threshold) {
+  if (!std::isfinite(threshold)) throw InputError("--threshold", "must be finite");
+  IntensityMapping mapping;
+  mapping.kind = IntensityMapping::Kind::kThreshold;
+  mapping.low = threshold;
+  return mapping;
+}
+
+IntensityMapping window_mapping(double low, double high) {
+  if (!std::isfinite(low) || !std::isfinite(high)) throw InputError("--window", "must be finite");
+  if (high <= low) throw InputError("--window", "HI must exceed LO");
+  IntensityMapping mapping;
+  mapping.kind = IntensityMapping::Kind::kWindow;
+  mapping.low = low;
+  mapping.high = high;
+  return mapping;
+}
+
 DensityField map_to_density(const RawVolume& raw, const IntensityMapping& mapping,
                             const std::string& source_name) {
   const Vec3i dims = raw.dims;

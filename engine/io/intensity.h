@@ -16,6 +16,14 @@ struct IntensityMapping {
   double high = 0.0;  // window high (kWindow)
 };
 
+/// A threshold mapping at `threshold` (the flag --threshold). Throws
+/// InputError("--threshold", ...) unless it is finite.
+IntensityMapping threshold_mapping(double threshold);
+
+/// A window mapping from `low` to `high` (the flag --window LO,HI). Throws
+/// InputError("--window", ...) unless both are finite and high exceeds low.
+IntensityMapping window_mapping(double low, double high);
+
 /// Maps intensities to densities: kThreshold gives 1 where v >= low, else 0; kWindow gives
 /// clamp((v - low) / (high - low), 0, 1); kAuto is a threshold at Otsu's value.
 /// Voxels of density 0 stay inactive background.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "engine/errors.h"
+#include "engine/io/intensity.h"
 #include "engine/io/io_test_util.h"
 #include "test_data.h"
 
@@ -45,6 +46,25 @@ TEST(VolumeIoMapping, ThresholdWindowAndOtsu) {
   EXPECT_FLOAT_EQ(window.grid().tree().getValue(openvdb::Coord(0, 1, 0)), 0.9f);
   EXPECT_FLOAT_EQ(window.grid().tree().getValue(openvdb::Coord(2, 0, 0)), 0.1f);
   expect_densities_in_unit_range(window);
+}
+
+// The one check of --threshold and --window, which the command line and the API share.
+TEST(VolumeIoMapping, ThresholdAndWindowMappingsAreCheckedAsTheirFlags) {
+  const IntensityMapping t = io::threshold_mapping(-40.5);
+  EXPECT_EQ(t.kind, IntensityMapping::Kind::kThreshold);
+  EXPECT_EQ(t.low, -40.5);
+  const IntensityMapping w = io::window_mapping(-100.0, 300.0);
+  EXPECT_EQ(w.kind, IntensityMapping::Kind::kWindow);
+  EXPECT_EQ(w.low, -100.0);
+  EXPECT_EQ(w.high, 300.0);
+  EXPECT_EQ(testing::input_error_of([] { io::threshold_mapping(std::nan("")); }),
+            "--threshold: must be finite");
+  EXPECT_EQ(testing::input_error_of([] { io::window_mapping(0.0, INFINITY); }),
+            "--window: must be finite");
+  EXPECT_EQ(testing::input_error_of([] { io::window_mapping(5.0, 5.0); }),
+            "--window: HI must exceed LO");
+  EXPECT_EQ(testing::input_error_of([] { io::window_mapping(5.0, 1.0); }),
+            "--window: HI must exceed LO");
 }
 
 TEST(VolumeIoMapping, WindowHighMustExceedLow) {
