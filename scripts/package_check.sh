@@ -34,8 +34,8 @@ embed_against() {  # PREFIX NAME [CMAKE ARGS]: builds examples/embed against PRE
   "$work/$2/embed" "$volume" "$trace" --compare "$work/press.h5"
 }
 
-echo "-- cmake --install into $work/prefix"
-cmake --install "$build" --prefix "$work/prefix" >/dev/null
+echo "-- cmake --install --strip into $work/prefix"
+cmake --install "$build" --prefix "$work/prefix" --strip >/dev/null
 bash "$root/tests/api/check_headers.sh" "${CXX:-c++}" "$work/prefix/include"
 embed_against "$work/prefix" embed-prefix
 echo "-- the same with hapvox's static libraries (hapvox::haptics_static)"
