@@ -6,6 +6,7 @@
 
 #include <toml++/toml.h>
 
+#include <cstdio>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -21,13 +22,30 @@ class TomlReporter {
   const std::string& source() const { return source_; }
 
   std::string at(int line) const { return source_ + ":" + std::to_string(line); }
+  /// A problem quotes what the file holds (a model's name, a key), which TOML's escapes can
+  /// give a line break: control characters are written \xHH, so the error stays one line.
+  /// Other bytes pass as they are (UTF-8 names stay readable).
   [[noreturn]] void fail(int line, const std::string& problem) const {
-    throw InputError(at(line), problem);
+    throw InputError(at(line), one_line(problem));
   }
   [[noreturn]] void fail(const toml::node& node, const std::string& problem) const {
     fail(line(node), problem);
   }
   static int line(const toml::node& node) { return static_cast<int>(node.source().begin.line); }
+  static std::string one_line(const std::string& text) {
+    std::string out;
+    for (const char c : text) {
+      const auto byte = static_cast<unsigned char>(c);
+      if (byte >= 0x20 && byte != 0x7f) {
+        out += c;
+        continue;
+      }
+      char escaped[5];
+      std::snprintf(escaped, sizeof escaped, "\\x%02X", byte);
+      out += escaped;
+    }
+    return out;
+  }
 
  private:
   std::string source_;

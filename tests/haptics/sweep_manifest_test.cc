@@ -164,6 +164,12 @@ TEST(SweepManifest, MistakesAreOneLineNamingTheManifestsLine) {
   EXPECT_EQ(error("[[row]]\ntrace = ''\nvolume = 'block'\n"), "m.toml:2: trace must not be empty");
   EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block']\nmodels = ['fem', 'mesh']\n"),
             "m.toml:3: unknown model 'mesh' (voxel or fem)");
+  // (Found by the fuzz target: a TOML escape put a line break in the quoted name.)
+  EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block']\nmodels = [\"me\\nsh\\t\"]\n"),
+            "m.toml:3: unknown model 'me\\x0Ash\\x09' (voxel or fem)");
+  EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block']\n\"a\\rb\" = 1\n"),
+            "m.toml:3: unknown key 'a\\x0Db' (expected traces, volumes, models, materials, "
+            "options, [[row]])");
   EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block']\n[options]\noutput = 'x.h5'\n"),
             "m.toml:4: option 'output' is set by the sweep (each row's inputs and output)");
   EXPECT_EQ(error("traces = ['a.csv']\nvolumes = ['block']\n[options]\n--plastic = true\n"),
