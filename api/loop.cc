@@ -33,6 +33,7 @@ RunSummary summary_of(const haptics::ReplaySummary& s, const haptics::SculptSumm
   out.peak_force_n = s.peak_force_n;
   out.clamped_ticks = s.clamped_ticks;
   out.nonfinite_forces = s.nonfinite_forces;
+  out.motion_faults = s.motion_faults;
   out.compute_p50_us = s.compute_p50_us;
   out.compute_p99_us = s.compute_p99_us;
   out.compute_max_us = s.compute_max_us;
@@ -138,12 +139,12 @@ struct ForceStage::Impl {
        const DeviceTransform& transform)
       : limits(checked_limits(options)),
         device(rate_hz, api::device_transform(transform)),
-        ramp(limits, rate_hz),
+        safety(limits, rate_hz),
         state(model.impl(), false) {}
 
   haptics::DeviceLimits limits;
   SteppedDevice device;
-  haptics::ForceRamp ramp;
+  haptics::ForceSafety safety;
   api::ModelRun state;
   std::size_t tick = 0;
 };
@@ -174,7 +175,7 @@ ForceTick ForceStage::step(const ToolSample& sample) noexcept {
   haptics::BackgroundStage* background = s.state.background();
   haptics::TickRecord row;
   const bool fault =
-      haptics::run_force_stage(s.state.force(), s.device, s.tick, s.limits, s.ramp, row);
+      haptics::run_force_stage(s.state.force(), s.device, s.tick, s.limits, s.safety, row);
   if (background != nullptr) background->run_lockstep_tick(s.tick, row, nullptr);
   ++s.tick;
   ForceTick out;

@@ -92,7 +92,8 @@ struct ToolForceOptions {
   int max_surface_samples = 4096;
   /// Stick-slip limit on the contact origin (hapvox's extension, docs/physics.md): x0
   /// follows the tool tangentially once the tangential displacement exceeds
-  /// slip_ratio x the normal indentation. Infinity (or < 0) keeps the paper's fixed x0.
+  /// slip_ratio x the normal indentation. Infinity keeps the paper's fixed x0 (the command
+  /// line refuses a negative or NaN ratio).
   double slip_ratio = 0.5;
   /// Bisection steps that locate x0 between the last free and the first contact position.
   int onset_refinement_steps = 6;

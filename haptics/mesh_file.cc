@@ -96,27 +96,6 @@ void write_report(hid_t group, const ProxyMesh& proxy) {
                          errors.data(), errors.size());
 }
 
-// Writes `text` to PATH.partial and renames it to PATH.
-void write_text_file(const std::string& path, const std::string& text) {
-  const std::string partial = path + ".partial";
-  {
-    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) {
-      std::error_code ignored;
-      fs::remove(partial, ignored);
-      throw InputError(path, "cannot write " + partial);
-    }
-  }
-  std::error_code ec;
-  fs::rename(partial, path, ec);
-  if (ec) {
-    fs::remove(partial, ec);
-    throw InputError(path, "cannot move " + partial + " into place");
-  }
-}
-
 std::string data_item(const std::string& dims, const char* number_type, int precision,
                       const std::string& h5_file_name, const std::string& dataset) {
   std::ostringstream out;
@@ -227,38 +206,23 @@ std::string mesh_xdmf(const std::string& h5_file_name, int vertex_count, int tet
 }
 
 void write_mesh_file(const std::string& path, const ProxyMesh& proxy) {
-  const std::string partial = path + ".partial";
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  const hid_t file = H5Fcreate(partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (file < 0) throw InputError(path, "cannot create mesh file " + partial);
-  const auto discard = [&] {
-    std::error_code ignored;
-    fs::remove(partial, ignored);
-  };
+  engine::io::OutputFile out(path);
   try {
-    write_proxy_mesh(file, proxy);
-  } catch (const InputError& e) {
-    H5Fclose(file);
-    discard();
-    throw InputError(path, e.problem());
-  }
-  if (H5Fclose(file) < 0) {
-    discard();
-    throw InputError(path, "failed to finish writing the mesh file");
-  }
-  try {
-    write_text_file(xdmf_path_for(path),
-                    mesh_xdmf(fs::path(path).filename().string(), proxy.mesh.vertex_count(),
-                              proxy.mesh.tet_count()));
-  } catch (const InputError&) {
-    discard();
+    H5Id file(create_hdf5_output(out), H5Fclose);
+    try {
+      write_proxy_mesh(file.get(), proxy);
+    } catch (const InputError& e) {
+      throw InputError(path, e.problem());
+    }
+    if (!file.close()) throw InputError(path, "failed to finish writing the mesh file");
+    engine::io::write_text_atomically(xdmf_path_for(path),
+                                      mesh_xdmf(fs::path(path).filename().string(),
+                                                proxy.mesh.vertex_count(), proxy.mesh.tet_count()));
+    out.commit();
+  } catch (...) {
+    out.discard();
     throw;
-  }
-  std::error_code ec;
-  fs::rename(partial, path, ec);
-  if (ec) {
-    discard();
-    throw InputError(path, "cannot move " + partial + " into place: " + ec.message());
   }
 }
 
@@ -303,7 +267,7 @@ void write_xdmf_time_series(const std::string& xdmf_path, const std::string& h5_
     }
   }
   out << "    </Grid>\n" << kXdmfFooter;
-  write_text_file(xdmf_path, out.str());
+  engine::io::write_text_atomically(xdmf_path, out.str());
 }
 
 namespace {

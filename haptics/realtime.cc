@@ -229,7 +229,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
   auto rows = std::make_unique<RowRing>();
   std::atomic<bool> force_done{false};
   if (background != nullptr) background->begin();
-  ForceRamp ramp(limits, device.rate_hz());
+  ForceSafety safety(limits, device.rate_hz());
 
   const ForceThreadHooks& hooks = options.hooks;
   const std::int64_t period_ns = dt.count();
@@ -281,7 +281,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
       RingSlot slot;
       TickRecord& row = slot.row;
       force.acquire_published();
-      slot.nonfinite = run_force_stage(force, device, tick, limits, ramp, row) ? 1 : 0;
+      slot.nonfinite = run_force_stage(force, device, tick, limits, safety, row) ? 1 : 0;
       const auto end = Clock::now();
       if (background != nullptr && !paced) background->fill_realtime_row(row);
       row.scheduled_ns = ns_between(start, deadline);
@@ -293,7 +293,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
         // force down to zero and back in, at the ramp-in's slope.
         row.watchdog = 1;
         ++watchdog_trips;
-        ramp.trip();
+        safety.ramp.trip();
       }
       if (feed != nullptr) {
         feed->tool.publish(RenderToolState{row.tool_position_mm, row.displacement_mm,
@@ -448,7 +448,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
     timing->lateness = duration_stats(lateness);
     timing->missed_deadlines = missed;
     timing->watchdog_trips = watchdog_trips;
-    timing->watchdog_ramped_ticks = ramp.reduced_ticks();
+    timing->watchdog_ramped_ticks = safety.ramp.reduced_ticks();
     timing->stalled_ticks = stalled;
     timing->force_cpu_s = force_cpu_s;
     timing->force_involuntary_switches = force_switches;

@@ -56,6 +56,7 @@ void SummaryBuilder::add(const TickRecord& row, bool nonfinite) {
   summary_.contact_ticks += row.contact;
   summary_.clamped_ticks += row.clamped;
   summary_.nonfinite_forces += nonfinite ? 1 : 0;
+  summary_.motion_faults += row.motion_fault;
   summary_.peak_force_n = std::max(summary_.peak_force_n, row.force_n.norm());
   summary_.plastic_events += row.plastic_event;
   summary_.max_queue_depth =

@@ -24,6 +24,7 @@ struct ReplaySummary {
   double peak_force_n = 0.0;
   std::size_t clamped_ticks = 0;
   std::size_t nonfinite_forces = 0;
+  std::size_t motion_faults = 0;  // device samples no hand could have reached (MotionGuard)
   std::uint64_t contact_onsets = 0;
   int trace_gaps = 0;
   double trace_held_s = 0.0;

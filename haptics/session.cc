@@ -11,6 +11,7 @@
 #include "engine/check.h"
 #include "engine/errors.h"
 #include "engine/version.h"
+#include "haptics/hdf5_id.h"
 
 namespace hapvox::haptics {
 namespace {
@@ -69,17 +70,23 @@ void write_root_attribute(hid_t file, const std::string& name, hid_t type, hid_t
 }  // namespace
 
 SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
-    : path_(std::move(path)), partial_path_(path_ + ".partial"), flush_every_(flush_every_ticks) {
+    : path_(std::move(path)), flush_every_(flush_every_ticks) {
   HAPVOX_CHECK_GT(flush_every_, 0u);
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  output_ = std::make_unique<engine::io::OutputFile>(path_);  // PATH.partial, locked
   // The HDF5 1.10 file format (readable by HDF5 >= 1.10: h5py, ParaView)
   // indexes an appended column's chunks with an extensible array; the 1.8 format's B-tree
   // index grew the process by another ~5 MB over a 10-minute session.
   const hid_t access = H5Pcreate(H5P_FILE_ACCESS);
   H5Pset_libver_bounds(access, H5F_LIBVER_V110, H5F_LIBVER_V110);
-  file_ = H5Fcreate(partial_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, access);
+  try {
+    file_ = create_hdf5_output(*output_, access);
+  } catch (const InputError&) {
+    H5Pclose(access);
+    output_->discard();
+    throw;
+  }
   H5Pclose(access);
-  if (file_ < 0) throw InputError(path_, "cannot create session file " + partial_path_);
   ds_.time_s = create_column(file_, "time_s", H5T_IEEE_F64LE, 1, "s");
   ds_.device_position_mm = create_column(file_, "device_position_mm", H5T_IEEE_F64LE, 3, "mm");
   ds_.tool_position_mm = create_column(file_, "tool_position_mm", H5T_IEEE_F64LE, 3, "mm");
@@ -90,6 +97,7 @@ SessionWriter::SessionWriter(std::string path, std::size_t flush_every_ticks)
   ds_.contact = create_column(file_, "contact", H5T_STD_U8LE, 1, nullptr);
   ds_.holding = create_column(file_, "holding", H5T_STD_U8LE, 1, nullptr);
   ds_.clamped = create_column(file_, "clamped", H5T_STD_U8LE, 1, nullptr);
+  ds_.motion_fault = create_column(file_, "motion_fault", H5T_STD_U8LE, 1, nullptr);
   ds_.device_sequence = create_column(file_, "device_sequence", H5T_STD_I64LE, 1, nullptr);
   // Wall-clock measurements live under /timing: the only data that differ between runs.
   const hid_t timing = H5Gcreate2(file_, "timing", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
@@ -132,29 +140,18 @@ SessionWriter::~SessionWriter() {
 }
 
 void SessionWriter::close_datasets() {
-  for (hid_t d : {ds_.time_s,
-                  ds_.device_position_mm,
-                  ds_.tool_position_mm,
-                  ds_.force_n,
-                  ds_.force_scale,
-                  ds_.displacement_mm,
-                  ds_.contact_area_mm2,
-                  ds_.contact,
-                  ds_.holding,
-                  ds_.clamped,
-                  ds_.device_sequence,
-                  ds_.compute_ns,
-                  ds_.strain,
-                  ds_.stress_pa,
-                  ds_.zone,
-                  ds_.plastic_event,
-                  ds_.queue_depth,
-                  ds_.deleted_voxels,
-                  ds_.relaxed_voxels,
-                  ds_.total_mass_units,
-                  ds_.scheduled_ns,
-                  ds_.start_ns,
-                  ds_.lateness_ns,
+  for (hid_t d : {ds_.time_s,           ds_.device_position_mm,
+                  ds_.tool_position_mm, ds_.force_n,
+                  ds_.force_scale,      ds_.displacement_mm,
+                  ds_.contact_area_mm2, ds_.contact,
+                  ds_.holding,          ds_.clamped,
+                  ds_.motion_fault,     ds_.device_sequence,
+                  ds_.compute_ns,       ds_.strain,
+                  ds_.stress_pa,        ds_.zone,
+                  ds_.plastic_event,    ds_.queue_depth,
+                  ds_.deleted_voxels,   ds_.relaxed_voxels,
+                  ds_.total_mass_units, ds_.scheduled_ns,
+                  ds_.start_ns,         ds_.lateness_ns,
                   ds_.watchdog}) {
     H5Dclose(d);
   }
@@ -251,6 +248,7 @@ void SessionWriter::flush_rows() {
   byte_column(ds_.contact, [](const TickRecord& r) { return r.contact; });
   byte_column(ds_.holding, [](const TickRecord& r) { return r.holding; });
   byte_column(ds_.clamped, [](const TickRecord& r) { return r.clamped; });
+  byte_column(ds_.motion_fault, [](const TickRecord& r) { return r.motion_fault; });
   auto int_column = [&](hid_t ds, auto field) {
     for (std::size_t i = 0; i < n; ++i) ints[i] = field(buffer_[i]);
     write_column(ds, H5T_NATIVE_INT64, ints.data(), 1);
@@ -320,9 +318,7 @@ void SessionWriter::close() {
   file_ = -1;
   closed_ = true;
   if (status < 0) throw InputError(path_, "failed to finish writing the session file");
-  std::error_code ec;
-  std::filesystem::rename(partial_path_, path_, ec);
-  if (ec) throw InputError(path_, "cannot move " + partial_path_ + " into place: " + ec.message());
+  output_->commit();
 }
 
 void SessionWriter::abandon() {
@@ -332,8 +328,7 @@ void SessionWriter::abandon() {
     file_ = -1;
   }
   closed_ = true;
-  std::error_code ec;
-  std::filesystem::remove(partial_path_, ec);
+  output_->discard();
 }
 
 std::vector<std::pair<std::string, std::string>> library_versions() {
@@ -403,10 +398,24 @@ bool is_hdf5_file(const std::string& path) {
   return H5Fis_hdf5(path.c_str()) > 0;
 }
 
+hid_t open_session_for_reading(const std::string& path, bool read_write) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t access = H5Pcreate(H5P_FILE_ACCESS);
+  // A session left by a killed run still says "open for write" in its superblock: HDF5's
+  // own (h5clear's) property reads it anyway; read-only, nothing on disk changes.
+  hbool_t clear = true;
+  H5Pset(access, "clear_status_flags", &clear);
+  // A run writing it holds its lock (engine/io/output_file.h); reading is still allowed.
+  H5Pset_file_locking(access, false, true);
+  const hid_t file = H5Fopen(path.c_str(), read_write ? H5F_ACC_RDWR : H5F_ACC_RDONLY, access);
+  H5Pclose(access);
+  return file;
+}
+
 SessionInfo read_session_info(const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path, "cannot open file");
   if (!is_hdf5_file(path)) throw InputError(path, "not an HDF5 file");
-  const Handle file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
+  const Handle file{open_session_for_reading(path), H5Fclose};
   if (file.id < 0) throw InputError(path, "cannot open HDF5 file");
   SessionInfo info;
   hsize_t index = 0;
@@ -427,7 +436,7 @@ SessionInfo read_session_info(const std::string& path) {
 std::vector<double> read_session_column(const std::string& path, const std::string& dataset,
                                         std::vector<std::size_t>* dims) {
   if (!is_hdf5_file(path)) throw InputError(path, "not an HDF5 file");
-  const Handle file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
+  const Handle file{open_session_for_reading(path), H5Fclose};
   if (file.id < 0) throw InputError(path, "cannot open HDF5 file");
   const Handle ds{H5Dopen2(file.id, dataset.c_str(), H5P_DEFAULT), H5Dclose};
   if (ds.id < 0) throw InputError(path, "no dataset " + dataset);

@@ -11,8 +11,13 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
+
+namespace hapvox::engine::io {
+class OutputFile;
+}  // namespace hapvox::engine::io
 
 namespace hapvox::haptics {
 
@@ -32,6 +37,7 @@ struct TickRecord {
   std::uint8_t contact = 0;
   std::uint8_t holding = 0;           // trace gap: tool held
   std::uint8_t clamped = 0;           // force magnitude limited to the device maximum
+  std::uint8_t motion_fault = 0;      // the device sample jumped (MotionGuard): not used
   std::int64_t device_sequence = -1;  // the device sample used: trace tick, packet sequence
   std::int64_t compute_ns = 0;
   std::int64_t scheduled_ns = 0;  // deadline of the tick, from the start of the run
@@ -95,14 +101,14 @@ class SessionWriter {
   void write_column(hid_t dataset, hid_t mem_type, const void* data, std::size_t columns);
 
   std::string path_;
-  std::string partial_path_;
+  std::unique_ptr<engine::io::OutputFile> output_;
   std::size_t flush_every_;
   hid_t file_ = -1;
   struct Datasets {
     hid_t time_s, device_position_mm, tool_position_mm, force_n, displacement_mm, contact_area_mm2,
-        contact, holding, clamped, compute_ns, strain, stress_pa, zone, plastic_event, queue_depth,
-        deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns, lateness_ns,
-        watchdog, force_scale, device_sequence;
+        contact, holding, clamped, motion_fault, compute_ns, strain, stress_pa, zone, plastic_event,
+        queue_depth, deleted_voxels, relaxed_voxels, total_mass_units, scheduled_ns, start_ns,
+        lateness_ns, watchdog, force_scale, device_sequence;
     hid_t device_orientation = -1;  // record_orientation()'s
   } ds_{};
   std::vector<TickRecord> buffer_;
@@ -124,6 +130,11 @@ struct SessionInfo {
   std::vector<std::pair<std::string, std::string>> attributes;  // name, value as text
   std::vector<std::string> datasets;                            // paths, e.g. "/force_n"
 };
+
+/// Opens an HDF5 file as hapvox opens sessions: read-only (or read-write), also when a killed
+/// run left it marked as open for write, and also while a run writes it. A negative id if it
+/// cannot. The caller closes it (H5Fclose).
+hid_t open_session_for_reading(const std::string& path, bool read_write = false);
 
 /// Opens an HDF5 session for reading. Throws InputError(path, ...) if it is not one.
 SessionInfo read_session_info(const std::string& path);

@@ -1,6 +1,7 @@
 #include "haptics/trace.h"
 
 #include <hdf5.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -106,16 +107,6 @@ void check_scales(const std::string& source, const TraceColumns& columns) {
   if (!(columns.mm_per_position_unit > 0.0) || !std::isfinite(columns.mm_per_position_unit)) {
     throw InputError(source, "position scale must be positive and finite (got " +
                                  format_double(columns.mm_per_position_unit) + ")");
-  }
-}
-
-// Writes through PATH.partial and renames, so a reader never sees a half-written file.
-void commit_partial(const std::string& partial, const std::string& path) {
-  std::error_code ec;
-  std::filesystem::rename(partial, path, ec);
-  if (ec) {
-    std::filesystem::remove(partial, ec);
-    throw InputError(path, "cannot rename " + partial + " into place");
   }
 }
 
@@ -372,10 +363,12 @@ Trace parse_csv_trace(const std::string& text, const std::string& path,
 
 void write_csv_trace(const Trace& trace, const std::string& path) {
   check_trace_shape(trace, path);
-  const std::string partial = path + ".partial";
-  std::FILE* out = std::fopen(partial.c_str(), "wb");
+  // Through PATH.partial, renamed once complete (engine/io/output_file.h).
+  engine::io::OutputFile file(path);
+  std::FILE* out = fdopen(dup(file.fd()), "wb");
   if (out == nullptr) {
-    throw InputError(path, "cannot write " + partial + ": " + std::strerror(errno));
+    file.discard();
+    throw InputError(path, "cannot write " + file.partial_path() + ": " + std::strerror(errno));
   }
   // With an orientation: its quaternion as qw,qx,qy,qz (read back with --orientation-cols).
   const bool turning = !trace.orientation.empty();
@@ -392,11 +385,10 @@ void write_csv_trace(const Trace& trace, const std::string& path) {
   }
   ok = (std::fclose(out) == 0) && ok;
   if (!ok) {
-    std::error_code ec;
-    std::filesystem::remove(partial, ec);
-    throw InputError(path, "cannot write " + partial);
+    file.discard();
+    throw InputError(path, "cannot write " + file.partial_path());
   }
-  commit_partial(partial, path);
+  file.commit();
 }
 
 // --- HDF5 -------------------------------------------------------------------------------
@@ -447,10 +439,9 @@ Trace read_h5_trace(const std::string& path, const TraceColumns& columns) {
 void write_h5_trace(const Trace& trace, const std::string& path) {
   check_trace_shape(trace, path);
   silence_hdf5();
-  const std::string partial = path + ".partial";
+  engine::io::OutputFile out(path);
   try {
-    H5Id file(H5Fcreate(partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-    if (!file.valid()) throw InputError(path, "cannot create " + partial);
+    H5Id file(create_hdf5_output(out), H5Fclose);
     std::array<std::vector<double>, 3> position;
     for (const Vec3d& p : trace.position_mm) {
       for (int a = 0; a < 3; ++a) position[a].push_back(p[a]);
@@ -459,13 +450,12 @@ void write_h5_trace(const Trace& trace, const std::string& path) {
     write_h5_column(path, file.get(), "x", position[0]);
     write_h5_column(path, file.get(), "y", position[1]);
     write_h5_column(path, file.get(), "z", position[2]);
-    if (!file.close()) throw InputError(path, "cannot finish writing " + partial);
+    if (!file.close()) throw InputError(path, "cannot finish writing " + out.partial_path());
+    out.commit();
   } catch (...) {
-    std::error_code ec;
-    std::filesystem::remove(partial, ec);
+    out.discard();
     throw;
   }
-  commit_partial(partial, path);
 }
 
 Trace read_trace(const std::string& path, const TraceColumns& columns) {

@@ -371,6 +371,7 @@ PYBIND11_MODULE(_hapvox, m) {
       .def_readonly("peak_force_n", &hapvox::RunSummary::peak_force_n)
       .def_readonly("clamped_ticks", &hapvox::RunSummary::clamped_ticks)
       .def_readonly("nonfinite_forces", &hapvox::RunSummary::nonfinite_forces)
+      .def_readonly("motion_faults", &hapvox::RunSummary::motion_faults)
       .def_readonly("compute_p50_us", &hapvox::RunSummary::compute_p50_us)
       .def_readonly("compute_p99_us", &hapvox::RunSummary::compute_p99_us)
       .def_readonly("lateness_p99_us", &hapvox::RunSummary::lateness_p99_us)

@@ -1,6 +1,7 @@
 #include "render/image.h"
 
 #include <png.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <csetjmp>
@@ -11,6 +12,7 @@
 
 #include "engine/check.h"
 #include "engine/errors.h"
+#include "engine/io/output_file.h"
 
 namespace hapvox::render {
 namespace {
@@ -36,9 +38,13 @@ void on_png_warning(png_structp, png_const_charp) {}
 
 void write_png(const Image& image, const std::string& path) {
   HAPVOX_CHECK_EQ(image.rgba.size(), static_cast<std::size_t>(image.width) * image.height * 4);
-  const std::string partial = path + ".partial";
-  File file(std::fopen(partial.c_str(), "wb"));
-  if (!file) throw InputError(path, "cannot be written");
+  // Through PATH.partial, renamed once complete (engine/io/output_file.h).
+  engine::io::OutputFile out(path);
+  File file(fdopen(dup(out.fd()), "wb"));
+  if (!file) {
+    out.discard();
+    throw InputError(path, "cannot be written");
+  }
   PngErrorText error;
   png_structp png =
       png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, on_png_error, on_png_warning);
@@ -50,7 +56,7 @@ void write_png(const Image& image, const std::string& path) {
   if (setjmp(png_jmpbuf(png)) != 0) {
     png_destroy_write_struct(&png, &info);
     file.reset();
-    std::filesystem::remove(partial);
+    out.discard();
     throw InputError(path, std::string("cannot be written: ") + error.text);
   }
   png_init_io(png, file.get());
@@ -62,12 +68,10 @@ void write_png(const Image& image, const std::string& path) {
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
   if (std::fclose(file.release()) != 0) {
-    std::filesystem::remove(partial);
+    out.discard();
     throw InputError(path, "cannot be written (disk full?)");
   }
-  std::error_code ec;
-  std::filesystem::rename(partial, path, ec);
-  if (ec) throw InputError(path, "cannot be written: " + ec.message());
+  out.commit();
 }
 
 Image read_png(const std::string& path) {

@@ -11,6 +11,7 @@
 #include <system_error>
 
 #include "engine/errors.h"
+#include "engine/io/output_file.h"
 #include "haptics/session.h"
 
 namespace hapvox::cli {
@@ -169,12 +170,7 @@ std::string json_number(double v) {
 
 // Writes PATH.partial, then renames: a failed run leaves no half-written file.
 void write_atomically(const std::string& path, const std::string& text) {
-  {
-    std::ofstream out(path + ".partial");
-    out << text;
-    if (!out) throw InputError(path, "cannot write");
-  }
-  std::filesystem::rename(path + ".partial", path);
+  engine::io::write_text_atomically(path, text);
 }
 
 engine::DensityField make_half_block(int n) {

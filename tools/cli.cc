@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -17,6 +18,7 @@
 
 #include "engine/errors.h"
 #include "engine/io/intensity.h"
+#include "engine/io/output_file.h"
 #include "render/transfer_function.h"
 
 namespace hapvox::cli {
@@ -79,18 +81,18 @@ std::string shell_quoted(const std::string& text) {
 
 int run_python_script(const std::string& python, const char* script, const std::string& tag,
                       const std::vector<std::string>& args) {
-  const std::filesystem::path path = std::filesystem::temp_directory_path() /
-                                     ("hapvox_" + tag + "_" + std::to_string(getpid()) + ".py");
-  {
-    std::ofstream out(path);
-    out << script;
-    if (!out) throw InputError(path.string(), "cannot write the plotting script");
-  }
+  // Created exclusively, never through a link planted in the shared temporary folder.
+  const std::string base =
+      (std::filesystem::temp_directory_path() / ("hapvox_" + tag + "_" + std::to_string(getpid())))
+          .string();
+  engine::io::OutputFile file(base, ".py");
+  const std::filesystem::path path = file.partial_path();
+  file.write(script, std::strlen(script));
   std::string command = shell_quoted(python) + " " + shell_quoted(path.string());
   for (const std::string& arg : args) command += " " + shell_quoted(arg);
   std::fflush(stdout);  // what we printed comes before what python prints
   const int status = std::system(command.c_str());
-  std::filesystem::remove(path);
+  file.discard();
   if (status == 0) return 0;
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -215,6 +217,9 @@ engine::ToolForceOptions ForceFlags::resolve() const {
   if (!(surface > 0.0 && surface <= 1.0)) {
     throw InputError("--surface-density", "must lie in (0, 1]");
   }
+  if (!(options.slip_ratio >= 0.0)) {
+    throw InputError("--slip-ratio", "must be zero or positive (inf: the paper's fixed x0)");
+  }
   return options;
 }
 
@@ -255,6 +260,24 @@ std::string& command_line_storage() {
 }
 }  // namespace
 
+void refuse_nan_values(CLI::App& app) {
+  // CLI11 reads "nan" into a double like any number; no option of hapvox means NaN.
+  static const CLI::Validator not_nan(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (end != text.c_str() && *end == '\0' && std::isnan(value)) {
+          return "must be a number, not " + text;
+        }
+        return {};
+      },
+      "", "not NaN");
+  for (CLI::Option* option : app.get_options()) {
+    if (option->get_type_name().find("FLOAT") != std::string::npos) option->check(not_nan);
+  }
+  for (CLI::App* sub : app.get_subcommands({})) refuse_nan_values(*sub);
+}
+
 void set_command_line(int argc, char** argv) {
   std::string& text = command_line_storage();
   text.clear();
@@ -266,11 +289,19 @@ const std::string& command_line() { return command_line_storage(); }
 void check_output_path(const std::string& output, const std::string& flag) {
   namespace fs = std::filesystem;
   if (output.empty()) throw InputError(flag, "an output path is required");
+  const std::size_t name_bytes = fs::path(output).filename().string().size();
+  if (name_bytes + 8 > engine::io::kMaxFileNameBytes) {
+    throw InputError(output, "file name is too long: at most " +
+                                 std::to_string(engine::io::kMaxFileNameBytes - 8) +
+                                 " bytes (the file is written first as NAME.partial)");
+  }
+  std::error_code ec;
   const fs::path parent = fs::path(output).parent_path();
-  if (!parent.empty() && !fs::is_directory(parent)) {
+  if (!parent.empty() && !fs::is_directory(parent, ec)) {
     throw InputError(output, "output directory " + parent.string() + " does not exist");
   }
-  if (fs::is_directory(output)) throw InputError(output, "is a directory, expected a file name");
+  if (fs::is_directory(output, ec))
+    throw InputError(output, "is a directory, expected a file name");
 }
 
 namespace {
@@ -350,6 +381,19 @@ std::vector<InputPath> transfer_inputs(const std::string& spec) {
 
 void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
                                 const std::vector<InputPath>& inputs) {
+  // One command's outputs, each against the others: the last written would replace the rest.
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    for (std::size_t j = i + 1; j < outputs.size(); ++j) {
+      const OutputPath& a = outputs[i];
+      const OutputPath& b = outputs[j];
+      if (a.path.empty() || b.path.empty()) continue;
+      const auto why =
+          overwrite_reason(a, b.path) ? overwrite_reason(a, b.path) : overwrite_reason(b, a.path);
+      if (why) {
+        throw InputError(b.path, b.flag + " and " + a.flag + " name the same file" + *why);
+      }
+    }
+  }
   for (const InputPath& input : inputs) {
     std::error_code ec;
     if (input.path.empty() || !fs::exists(input.path, ec)) continue;  // nothing to lose
@@ -360,6 +404,15 @@ void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
                                           " " + input.path + *why);
       }
     }
+  }
+  // Then each file as a place to write: no link, no special file, no other run's .partial
+  // (in a folder still to be made, such as a sweep's, nothing is there yet).
+  for (const OutputPath& output : outputs) {
+    if (output.path.empty() || !output.files_in_dir.empty()) continue;
+    const fs::path parent = fs::path(output.path).parent_path();
+    std::error_code ec;
+    if (parent.empty() || fs::is_directory(parent, ec))
+      engine::io::check_output_target(output.path);
   }
 }
 

@@ -99,7 +99,13 @@ void add_bench_command(CLI::App& app);
 void add_validate_command(CLI::App& app);  // tools/cmd_validate.cc
 void add_trace_command(CLI::App& app);
 
-/// Fails with InputError(flag, "directory ... does not exist") when OUTPUT's folder is missing.
+/// Gives every floating-point option of `app` and its subcommands a check that refuses NaN
+/// ("--slip-ratio: must be a number, not nan"). Call once all commands are added.
+void refuse_nan_values(CLI::App& app);
+
+/// Fails with InputError(flag, ...) when OUTPUT is empty, and otherwise as
+/// engine::io::check_output_target: a missing folder, a link, a directory or special file at
+/// OUTPUT, a name too long, OUTPUT.partial there (another run's, or a killed run's).
 void check_output_path(const std::string& output, const std::string& flag);
 
 /// Something a command writes: a file (written as PATH.partial, then renamed), or, with
@@ -128,8 +134,9 @@ std::vector<InputPath> transfer_inputs(const std::string& spec);
 
 /// Every command calls this before it writes anything: fails with InputError(OUTPUT, "FLAG
 /// would overwrite the input WHAT INPUT") when an output (or its NAME.partial, or a file an
-/// output directory receives) is an existing input file. Paths are compared as files, not
-/// as text: `./p.csv` and `p.csv`, symbolic and hard links to the same file all match.
+/// output directory receives) is an existing input file, and with InputError(OUTPUT, "FLAG
+/// and FLAG2 name the same file") when two outputs would be one file. Paths are compared as files,
+/// not as text: `./p.csv` and `p.csv`, symbolic and hard links to the same file all match.
 void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
                                 const std::vector<InputPath>& inputs);
 

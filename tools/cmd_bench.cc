@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "engine/errors.h"
+#include "engine/io/output_file.h"
 #include "engine/version.h"
 #include "tools/bench.h"
 #include "tools/cli.h"
@@ -118,14 +119,13 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
                      std::to_string(row.samples) + " surface samples"});
   }
   if (!f.csv.empty()) {
-    std::ofstream out(f.csv + ".partial");
+    std::ostringstream out;
     out << "volume,diameter_voxels,surface_samples,ours_hz,naive_hz,seed_hz\n";
     for (const Row& row : rows) {
       out << row.size << "," << row.diameter << "," << row.samples << "," << row.ours_hz << ","
           << row.naive_hz << "," << seed_force_rate_hz(row.size, row.diameter) << "\n";
     }
-    out.close();
-    std::filesystem::rename(f.csv + ".partial", f.csv);
+    engine::io::write_text_atomically(f.csv, out.str());
     std::printf("\nwrote %s\n", f.csv.c_str());
   }
   return table;

@@ -20,6 +20,7 @@
 #include <tbb/global_control.h>
 
 #include "engine/errors.h"
+#include "engine/io/output_file.h"
 #include "render/gl_context.h"
 #include "render/proxy_resample.h"
 #include "render/tet_slicer.h"
@@ -293,15 +294,13 @@ void run_bench_render(const BenchRenderFlags& f) {
       "against the 500-slice reference; seed: 15 fps on a GPU; the FEM's frames >= 80%% of "
       "the voxel model's fps\n");
   if (!f.csv.empty()) {
-    std::ofstream out(f.csv + ".partial");
+    std::ostringstream out;
     out << "volume,size,method,fps,frame_ms,draw_ms,vertices,psnr_db\n";
     for (const Row& r : rows) {
       out << '"' << r.volume << "\"," << r.size << ",\"" << r.method << "\"," << r.fps << ','
           << r.frame_ms << ',' << r.draw_ms << ',' << r.vertices << ',' << r.psnr_db << '\n';
     }
-    out.close();
-    if (!out) throw InputError(f.csv, "cannot be written");
-    std::filesystem::rename(f.csv + ".partial", f.csv);
+    engine::io::write_text_atomically(f.csv, out.str());
   }
 }
 

@@ -7,8 +7,10 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 
 #include "engine/errors.h"
+#include "engine/io/output_file.h"
 #include "haptics/bridge_client.h"
 #include "tools/cli.h"
 
@@ -30,10 +32,8 @@ void check_fraction(double value, const char* flag) {
 }
 
 void write_answers(const haptics::BridgeClientResult& result, const std::string& path) {
-  const std::string partial = path + ".partial";
+  std::ostringstream out;
   {
-    std::ofstream out(partial);
-    if (!out) throw InputError(path, "cannot write");
     out << "sequence,answered,fx,fy,fz,status,tick,round_trip_ns\n";
     out.precision(17);
     for (std::size_t k = 0; k < result.answers.size(); ++k) {
@@ -41,9 +41,8 @@ void write_answers(const haptics::BridgeClientResult& result, const std::string&
       out << k << ',' << (a.answered ? 1 : 0) << ',' << a.force_n.x() << ',' << a.force_n.y() << ','
           << a.force_n.z() << ',' << a.status << ',' << a.tick << ',' << a.round_trip_ns << '\n';
     }
-    if (!out) throw InputError(path, "cannot write");
   }
-  std::rename(partial.c_str(), path.c_str());
+  engine::io::write_text_atomically(path, out.str());
 }
 
 void run_device_sim(const DeviceSimFlags& f) {

@@ -106,6 +106,9 @@ void info_session(const std::string& path) {
   const haptics::SessionInfo info = haptics::read_session_info(path);
   std::printf("%s: hapvox session, %zu ticks, %s\n", path.c_str(), info.rows,
               info.complete ? "complete" : "INCOMPLETE (the run did not finish)");
+  if (!info.complete && path.ends_with(".partial")) {
+    std::printf("  recover it       hapvox recover %s\n", path.c_str());
+  }
   std::printf("  datasets        ");
   for (const auto& name : info.datasets) std::printf(" %s", name.c_str());
   std::printf("\n");
@@ -163,7 +166,9 @@ void run_info(const InfoFlags& f) {
     info_volume(f);
     return;
   }
-  const std::string ext = fs::path(f.path).extension().string();
+  std::string ext = fs::path(f.path).extension().string();
+  // An unfinished output (a killed run's session.h5.partial) is read as what it will be.
+  if (ext == ".partial") ext = fs::path(f.path).stem().extension().string();
   if (!fs::exists(f.path)) throw InputError(f.path, "cannot open file");
   if (ext == ".csv") {
     info_trace(f);

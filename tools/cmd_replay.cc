@@ -188,7 +188,10 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     const haptics::ProgressFn progress = progress_bar(f, device);
     if (f.realtime) {
       haptics::RealtimeOptions options = realtime_options(f);
-      if (live) options.stop = stop_request();
+      // Ctrl-C or SIGTERM ends any realtime run after the tick under way, and the session
+      // is finished with every tick it ran.
+      end_session_on_signals();
+      options.stop = stop_request();
       options.background_in_lockstep = paced;
       if (recorder) {
         options.render_loop = recorder->realtime_loop(f.render_fps);
@@ -214,6 +217,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       s = haptics::replay_lockstep(force, relaxation.get(), device, f.limits, &session, progress,
                                    &sculpted, recorder ? &render : nullptr);
     }
+    refuse_empty_run(f, s);
   } catch (...) {
     session.abandon();
     throw;
@@ -253,7 +257,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   }
 
   if (f.print_report) {
-    const std::string source = f.front_end ? f.front_end->name : live ? f.device : f.trace_path;
+    const std::string source = run_source(f);
     std::printf("%s %s on %s -> %s\n", f.front_end ? "sculpted with" : "replayed", source.c_str(),
                 f.volume.c_str(), f.output.c_str());
     print_run_report(f, s, timing, device,
@@ -289,7 +293,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     }
     if (bridged != nullptr) print_bridge_lines(*bridged);
     if (recorder) print_render_line(f, *recorder, timing);
-    print_run_footer(s);
+    print_run_footer(f, s);
     print_warnings(warnings);
   }
   return ReplayResult{s, timing, sculpted};

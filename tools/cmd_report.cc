@@ -7,6 +7,8 @@
 // than hand-written: the script is compiled into the binary (tools/report.py) and run
 // with the system python3, so the command works from any directory.
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -15,6 +17,7 @@
 
 #include "engine/errors.h"
 #include "haptics/session.h"
+#include "haptics/session_recover.h"
 #include "tools/cli.h"
 #include "tools/report_script.h"
 #include "tools/sweep_report_script.h"
@@ -81,7 +84,20 @@ void run_report(const ReportFlags& f) {
   if (info.rows == 0) throw InputError(f.session, "the session has no rows");
   check_python(f.python);
   make_output_dir(f.out_dir);
-  const int status = run_python_script(f.python, kReportScript, "report", {f.session, f.out_dir});
+  // A session a killed run left (h5py refuses it): drawn from a recovered copy.
+  std::string drawn = f.session;
+  if (!info.complete) {
+    drawn = (std::filesystem::temp_directory_path() /
+             ("hapvox_report_" + std::to_string(getpid()) + ".h5"))
+                .string();
+    const haptics::RecoveredSession recovered = haptics::recover_session(f.session, drawn);
+    std::printf(
+        "%s did not finish: drawn from the %zu rows it holds (hapvox recover %s makes "
+        "it a complete session)\n",
+        f.session.c_str(), recovered.rows, f.session.c_str());
+  }
+  const int status = run_python_script(f.python, kReportScript, "report", {drawn, f.out_dir});
+  if (drawn != f.session) std::filesystem::remove(drawn);
   if (status != 0) {
     throw InputError(f.session,
                      "plotting failed (python exit status " + std::to_string(status) + ")");

@@ -95,6 +95,9 @@ bool run_locally(SweepPlan& plan, int parallel) {
     std::fprintf(stderr, "\rsweep: %zu/%zu rows run, %zu failed, %zu running   ", finished,
                  plan.to_run.size(), failed, running);
   };
+  // A killed sweep's leftovers of the rows to run (DIR is this sweep's, under its lock): the
+  // rows run again, and a replay refuses to write over a .partial it did not make.
+  for (const std::size_t i : plan.to_run) fs::remove(plan.file(i, ".h5.partial"));
   run_pool(
       jobs, parallel, "hapvox", stop,
       [&](std::size_t) {

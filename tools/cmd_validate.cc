@@ -10,10 +10,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "engine/errors.h"
+#include "engine/io/output_file.h"
 #include "engine/tool_force.h"
 #include "tools/cli.h"
 #include "tools/hertz_plot_script.h"
@@ -102,9 +104,8 @@ bool run_validate_hertz(const ValidateFlags& f) {
     throw InputError(f.out_dir, "cannot create the output directory");
   }
   const std::string csv_path = (std::filesystem::path(f.out_dir) / "hertz.csv").string();
-  const std::string partial = csv_path + ".partial";
-  std::ofstream csv(partial);
-  if (!csv) throw InputError(csv_path, "cannot write");
+  engine::io::check_output_target(csv_path);  // before the minutes of pressing
+  std::ostringstream csv;
   csv << "radius_mm,poisson,voxel_mm,depth_mm,force_hertz_law_n,force_paper_law_n,"
          "force_hertz_n\n";
   bool all_pass = true;
@@ -146,9 +147,7 @@ bool run_validate_hertz(const ValidateFlags& f) {
       }
     }
   }
-  csv.close();
-  if (!csv) throw InputError(csv_path, "write failed");
-  std::filesystem::rename(partial, csv_path);
+  engine::io::write_text_atomically(csv_path, csv.str());
   std::printf("wrote %s\n", csv_path.c_str());
   if (f.plot) {
     const std::string png = (std::filesystem::path(f.out_dir) / "hertz.png").string();

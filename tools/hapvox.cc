@@ -20,6 +20,7 @@ void add_render_command(CLI::App& app);          // tools/cmd_render.cc
 void add_bench_render_command(CLI::App& bench);  // tools/cmd_bench_render.cc
 void add_mesh_command(CLI::App& app);            // tools/cmd_mesh.cc
 void add_convert_command(CLI::App& app);         // tools/cmd_convert.cc
+void add_recover_command(CLI::App& app);         // tools/cmd_recover.cc
 void add_device_sim_command(CLI::App& app);      // tools/cmd_device_sim.cc
 void add_sculpt_command(CLI::App& app);          // tools/cmd_sculpt.cc
 void add_sweep_command(CLI::App& app);           // tools/cmd_sweep.cc
@@ -89,9 +90,11 @@ int main(int argc, char** argv) {
   hapvox::cli::add_validate_command(app);
   hapvox::cli::add_mesh_command(app);
   hapvox::cli::add_convert_command(app);
+  hapvox::cli::add_recover_command(app);
   hapvox::cli::add_device_sim_command(app);
   hapvox::cli::add_sculpt_command(app);
   hapvox::cli::add_sweep_command(app);
+  hapvox::cli::refuse_nan_values(app);
   try {
     check_command_names(app, argc, argv);
     app.parse(argc, argv);

@@ -146,6 +146,14 @@ void print_bridge_lines(const haptics::BridgeDevice& device);
 /// CSV: `hapvox replay` of it in lockstep steps the model through the same positions.
 void write_recorded_trace(const std::string& session_path, const std::string& trace_path);
 
+/// What moved the tool: the window's name, the --device address or the trace file.
+std::string run_source(const ReplayFlags& f);
+
+/// A run in which no tick ran (a live device that sent nothing, a stop before the first
+/// tick) records nothing: throws InputError(run_source(f), "... nothing written to OUT"),
+/// which the caller's handler turns into exit 2 after abandoning the session.
+void refuse_empty_run(const ReplayFlags& f, const haptics::ReplaySummary& s);
+
 /// The flags every model checks alike (limits, rates, scheduling); InputError naming the flag.
 void check_loop_flags(const ReplayFlags& f);
 
@@ -175,7 +183,7 @@ void print_run_report(const ReplayFlags& f, const haptics::ReplaySummary& s,
                       const std::string& compute_note);
 
 /// The report's last lines: trace gaps and non-finite forces.
-void print_run_footer(const haptics::ReplaySummary& s);
+void print_run_footer(const ReplayFlags& f, const haptics::ReplaySummary& s);
 
 void print_stats_line(const char* label, const haptics::DurationStats& d);
 

@@ -196,7 +196,8 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
         realtime.render_loop = recorder->realtime_loop(f.render_fps);
         realtime.scheduler.lock_future_memory = false;  // Mesa maps memory on its threads
       }
-      if (live) realtime.stop = stop_request();
+      end_session_on_signals();  // as the voxel model's realtime runs (cmd_replay.cc)
+      realtime.stop = stop_request();
       if (windowed) {
         // Paced in lockstep (a FEM step after every fem_every_ticks-th tick, before the
         // next): the session's trace replays it bit for bit.
@@ -212,6 +213,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
       s = haptics::replay_lockstep(force, &fem, device, f.limits, &session, progress, nullptr,
                                    recorder ? &render : nullptr);
     }
+    refuse_empty_run(f, s);
     force.write_attributes(session);
     write_summary_attributes(session, f, s, timing);
     if (f.realtime && !windowed) {
@@ -248,10 +250,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
 
   if (f.print_report) {
     std::printf("%s %s on %s (proxy FEM, %s %s) -> %s\n", windowed ? "sculpted with" : "replayed",
-                windowed ? f.front_end->name.c_str()
-                : live   ? f.device.c_str()
-                         : f.trace_path.c_str(),
-                f.volume.c_str(), haptics::fem_solver_name(options.solver),
+                run_source(f).c_str(), f.volume.c_str(), haptics::fem_solver_name(options.solver),
                 haptics::fem_interaction_name(options.interaction), f.output.c_str());
     print_run_report(f, s, timing, device,
                      "(contact solve on the FEM's snapshot, " +
@@ -299,7 +298,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
                   render::gradient_transform_name(recorder->setup().resample.gradient));
     }
     if (bridged != nullptr) print_bridge_lines(*bridged);
-    print_run_footer(s);
+    print_run_footer(f, s);
   }
   return ReplayResult{s, timing, haptics::SculptSummary{}};
 }

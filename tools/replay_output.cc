@@ -75,6 +75,20 @@ void print_stats_line(const char* label, const haptics::DurationStats& d) {
               d.p50_us, d.p99_us, d.p999_us, d.max_us, d.count);
 }
 
+std::string run_source(const ReplayFlags& f) {
+  if (f.front_end != nullptr) return f.front_end->name;
+  return f.device.empty() ? f.trace_path : f.device;
+}
+
+void refuse_empty_run(const ReplayFlags& f, const haptics::ReplaySummary& s) {
+  if (s.ticks > 0) return;
+  throw InputError(run_source(f), f.device.empty() && f.front_end == nullptr
+                                      ? "no tick ran: nothing written to " + f.output
+                                      : "no position arrived before the run ended: no tick ran, "
+                                        "nothing written to " +
+                                            f.output);
+}
+
 void check_loop_flags(const ReplayFlags& f) {
   if (!std::isfinite(f.limits.max_force_n) || f.limits.max_force_n <= 0.0) {
     throw InputError("--max-force-n", "must be positive");
@@ -144,6 +158,7 @@ void write_summary_attributes(haptics::SessionWriter& session, const ReplayFlags
   session.set_attribute("summary_peak_force_n", s.peak_force_n);
   session.set_attribute("summary_clamped_ticks", static_cast<std::int64_t>(s.clamped_ticks));
   session.set_attribute("summary_nonfinite_forces", static_cast<std::int64_t>(s.nonfinite_forces));
+  session.set_attribute("summary_motion_faults", static_cast<std::int64_t>(s.motion_faults));
   session.set_attribute("summary_trace_gaps", std::int64_t{s.trace_gaps});
   session.set_attribute("summary_compute_p50_us", s.compute_p50_us);
   session.set_attribute("summary_compute_p99_us", s.compute_p99_us);
@@ -212,12 +227,23 @@ void print_run_report(const ReplayFlags& f, const haptics::ReplaySummary& s,
   }
 }
 
-void print_run_footer(const haptics::ReplaySummary& s) {
+void print_run_footer(const ReplayFlags& f, const haptics::ReplaySummary& s) {
+  if (f.realtime && stop_request()->load()) {
+    std::printf("  stopped          by Ctrl-C or SIGTERM after %zu ticks (all in the session)\n",
+                s.ticks);
+  }
   if (s.trace_gaps > 0) {
     std::printf("  trace gaps       %d (tool held for %.3f s)\n", s.trace_gaps, s.trace_held_s);
   }
   if (s.nonfinite_forces > 0) {
-    std::printf("  non-finite forces replaced by zero: %zu\n", s.nonfinite_forces);
+    std::printf("  non-finite forces %zu, replaced by the last safe force, ramped out and in\n",
+                s.nonfinite_forces);
+  }
+  if (s.motion_faults > 0) {
+    std::printf(
+        "  motion faults    %zu device samples moved faster than %.0f mm/s or beyond %.0f mm: "
+        "not used, the force ramped out and in\n",
+        s.motion_faults, f.limits.max_speed_mm_s, f.limits.max_reach_mm);
   }
 }
 

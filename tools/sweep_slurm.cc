@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "engine/errors.h"
+#include "engine/io/output_file.h"
 #include "engine/io/text.h"
 #include "engine/text_file.h"
 #include "tools/cli.h"
@@ -114,9 +115,8 @@ std::string write_slurm_script(const SweepPlan& plan, const SlurmOptions& option
   fs::create_directories(plan.dir + "/slurm");
   fs::remove(plan.dir + "/slurm.job");  // this job's ID goes there, once it has one
   const std::string path = plan.dir + "/sweep.sbatch";
-  const std::string partial = path + ".partial";
   {
-    std::ofstream out(partial);
+    std::ostringstream out;
     out << "#!/bin/bash\n"
         << "# " << manifest << " as a Slurm job array, written by hapvox sweep: " << rows
         << " rows in " << tasks << (tasks == 1 ? " task" : " tasks") << " of up to " << per_task
@@ -151,9 +151,8 @@ std::string write_slurm_script(const SweepPlan& plan, const SlurmOptions& option
         << "fi\n"
         << "exec hapvox sweep " << shell_quoted(manifest) << " -o " << dir
         << " -j 1 --task-rows \"${rows[$SLURM_ARRAY_TASK_ID]}\"\n";
-    if (!out.flush()) throw InputError(path, "cannot be written");
+    engine::io::write_text_atomically(path, out.str());
   }
-  fs::rename(partial, path);
   return path;
 }
 

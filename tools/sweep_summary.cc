@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 
 #include "engine/errors.h"
 #include "haptics/hdf5_id.h"
@@ -123,20 +124,19 @@ namespace {
 // one sweep writes DIR's summaries at a time: tools/sweep_plan.h's SweepDirLock.)
 template <typename Write>
 void write_through_partial(const std::string& path, Write write) {
-  const std::string partial = path + ".partial";
+  engine::io::OutputFile out(path);
   try {
-    write(partial);
+    write(out);
+    out.commit();
   } catch (...) {
-    std::filesystem::remove(partial);
+    out.discard();
     throw;
   }
-  std::filesystem::rename(partial, path);
 }
 
-void write_csv(const std::string& path, const std::string& partial, const SweepTable& table) {
+void write_csv(engine::io::OutputFile& file, const SweepTable& table) {
   {
-    std::ofstream out(partial);
-    if (!out) throw InputError(path, "cannot be written");
+    std::ostringstream out;
     for (std::size_t c = 0; c < kColumns.size(); ++c) {
       out << kColumns[c].name << (c + 1 < kColumns.size() ? ',' : '\n');
     }
@@ -145,15 +145,15 @@ void write_csv(const std::string& path, const std::string& partial, const SweepT
         out << csv_cell(row[c]) << (c + 1 < row.size() ? ',' : '\n');
       }
     }
-    if (!out.flush()) throw InputError(path, "cannot be written");
+    const std::string text = out.str();
+    file.write(text.data(), text.size());
   }
 }
 
-void write_h5(const std::string& path, const std::string& partial, const SweepTable& table) {
+void write_h5(engine::io::OutputFile& out, const SweepTable& table) {
+  const std::string& path = out.path();
   {
-    haptics::H5Id file(H5Fcreate(partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
-                       H5Fclose);
-    if (!file.valid()) throw InputError(path, "cannot be written");
+    haptics::H5Id file(haptics::create_hdf5_output(out), H5Fclose);
     const hsize_t count = table.size();
     haptics::H5Id space(H5Screate_simple(1, &count, nullptr), H5Sclose);
     bool ok = true;
@@ -210,8 +210,8 @@ void write_sweep_summaries(const std::string& dir, const std::vector<haptics::Sw
                            const std::vector<SweepOutcome>& outcomes) {
   const SweepTable table = sweep_table(rows, outcomes);
   const std::string csv = dir + "/summary.csv", h5 = dir + "/summary.h5";
-  write_through_partial(csv, [&](const std::string& partial) { write_csv(csv, partial, table); });
-  write_through_partial(h5, [&](const std::string& partial) { write_h5(h5, partial, table); });
+  write_through_partial(csv, [&](engine::io::OutputFile& out) { write_csv(out, table); });
+  write_through_partial(h5, [&](engine::io::OutputFile& out) { write_h5(out, table); });
 }
 
 }  // namespace hapvox::cli

@@ -153,21 +153,4 @@ std::vector<unsigned char> deflate_bytes(const void* data, std::size_t size, boo
   return compressed;
 }
 
-void write_file_atomically(const std::string& path, std::initializer_list<Bytes> pieces) {
-  namespace fs = std::filesystem;
-  const std::string partial = path + ".partial";
-  {
-    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(path, "cannot write file");
-    for (const Bytes& piece : pieces) {
-      out.write(static_cast<const char*>(piece.data), static_cast<std::streamsize>(piece.size));
-    }
-    out.close();
-    if (!out) throw InputError(path, "error while writing file");
-  }
-  std::error_code ec;
-  fs::rename(partial, path, ec);
-  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
-}
-
 }  // namespace hapvox::engine::io

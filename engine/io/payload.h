@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine/density_field.h"
+#include "engine/io/output_file.h"
 
 namespace hapvox::engine::io {
 
@@ -33,13 +34,4 @@ std::vector<float> dense_floats(const DensityField& field);
 std::vector<unsigned char> deflate_bytes(const void* data, std::size_t size, bool gzip);
 
 /// One piece of a file to write.
-struct Bytes {
-  const void* data;
-  std::size_t size;
-};
-
-/// Writes the pieces to PATH.partial, then renames it to PATH, so a failed write never
-/// leaves a half file under the name. Throws InputError(PATH, ...) when it cannot.
-void write_file_atomically(const std::string& path, std::initializer_list<Bytes> pieces);
-
 }  // namespace hapvox::engine::io

@@ -20,6 +20,7 @@
 #include "engine/check.h"
 #include "engine/errors.h"
 #include "engine/io/direction.h"
+#include "engine/io/output_file.h"
 #include "engine/io/raw_volume.h"
 
 namespace hapvox::engine::io {
@@ -158,19 +159,22 @@ GridGeometry grid_geometry(const openvdb::GridBase& grid, const std::string& pat
   return g;
 }
 
-// Writes `grid` to PATH.partial, then renames it to PATH.
+// Writes `grid` to PATH.partial (engine/io/output_file.h), then renames it to PATH.
 void write_grid_atomically(const openvdb::GridBase::ConstPtr& grid, const std::string& path) {
-  const std::string partial = path + ".partial";
+  OutputFile out(path);
   try {
-    openvdb::io::File file(partial);
+    openvdb::io::File file(out.partial_path());
     file.write(openvdb::GridCPtrVec{grid});
     file.close();
+    out.verify();
+    out.commit();
   } catch (const openvdb::Exception& e) {
+    out.discard();
     throw InputError(path, std::string("cannot write file: ") + e.what());
+  } catch (...) {
+    out.discard();
+    throw;
   }
-  std::error_code ec;
-  fs::rename(partial, path, ec);
-  if (ec) throw InputError(path, "cannot rename " + partial + ": " + ec.message());
 }
 
 // read_vdb once the child process read the file without harm.

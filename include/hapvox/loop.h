@@ -36,7 +36,8 @@ struct RunSummary {
   std::size_t contact_ticks = 0;
   double peak_force_n = 0.0;
   std::size_t clamped_ticks = 0;
-  std::size_t nonfinite_forces = 0;  // sent as zero
+  std::size_t nonfinite_forces = 0;  // replaced by the last safe force, ramped out and in
+  std::size_t motion_faults = 0;     // device samples faster than a hand: not used
   double compute_p50_us = 0.0;       // per-tick compute time
   double compute_p99_us = 0.0;
   double compute_max_us = 0.0;

@@ -69,10 +69,10 @@ inline FemRun run_lockstep(const FemModel& model, TraceDevice device,
   FemBackgroundStage fem2(model, *handoff2, device.tool_position_mm(0));
   fem2.set_label_changes(std::move(changes));
   fem2.begin();
-  ForceRamp ramp(no_ramp(), device.rate_hz());
+  ForceSafety safety(no_ramp(), device.rate_hz());
   for (std::size_t tick = 0; tick < device.tick_count(); ++tick) {
     TickRecord row;
-    run_force_stage(force2, device, tick, no_ramp(), ramp, row);
+    run_force_stage(force2, device, tick, no_ramp(), safety, row);
     fem2.run_lockstep_tick(tick, row, nullptr);
     run.force_n.push_back(row.force_n);
     run.contact.push_back(row.contact);

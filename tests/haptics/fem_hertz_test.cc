@@ -76,11 +76,11 @@ TEST(FemHertz, PressForceFollowsHertzWithinTheMeshStiffening) {
   DeviceLimits limits;
   limits.max_force_n = 1e3;
   limits.ramp_in_s = 0.0;
-  ForceRamp ramp(limits, 1000.0);
+  ForceSafety safety(limits, 1000.0);
   std::vector<double> depth, ratio;
   for (std::size_t k = 0; k < ticks; ++k) {
     TickRecord row;
-    run_force_stage(force, device, k, limits, ramp, row);
+    run_force_stage(force, device, k, limits, safety, row);
     fem.run_lockstep_tick(k, row, nullptr);
     const Vec3d proxy = row.tool_position_mm + row.displacement_mm;
     const double d = kDepthMm + kRadiusMm - proxy.z();

@@ -152,14 +152,15 @@ TEST(Replay, AWatchdogTripRampsTheForceDownAndBackWithoutAStep) {
   TraceDevice device = press_to_depth(-1.0, 1.0, 1.0);  // pressed and held from 0.1 s
   const DeviceLimits limits;                            // 10 N, 0.1 s ramp
   VoxelForceStage stage(model);
-  ForceRamp ramp(limits, device.rate_hz());
+  ForceSafety safety(limits, device.rate_hz());
+  ForceRamp& ramp = safety.ramp;
   EXPECT_DOUBLE_EQ(ramp.step(), 0.01);
   const std::size_t trip = 600, steps = 100;
   std::vector<Vec3d> sent, model_force;  // model_force: clamped, not ramped
   std::vector<double> scale;
   for (std::size_t tick = 0; tick < device.tick_count(); ++tick) {
     TickRecord row;
-    run_force_stage(stage, device, tick, limits, ramp, row);
+    run_force_stage(stage, device, tick, limits, safety, row);
     sent.push_back(row.force_n);
     scale.push_back(row.force_scale);
     bool clamped = false, nonfinite = false;

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "engine/errors.h"
+#include "force_safety_check.h"
 #include "fuzz_check.h"
 #include "haptics/trace.h"
 #include "haptics/trace_h3d.h"
@@ -32,6 +33,8 @@ void check_trace(const hapvox::haptics::Trace& trace) {
   for (const auto& q : trace.orientation) {
     if (!(std::abs(q.norm() - 1.0) < 1e-9)) std::abort();
   }
+  // Whatever positions it holds, the forces they make are safe (one sample a tick).
+  hapvox::testing::abort_unless_forces_safe(trace.position_mm);
 }
 
 }  // namespace

@@ -63,7 +63,8 @@ TEST(Png, BadFilesNameTheFileAndProblem) {
     write_png(gradient_image(8, 8), dir + "/no/such/dir/x.png");
     ADD_FAILURE();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), dir + "/no/such/dir/x.png: cannot be written");
+    EXPECT_EQ(std::string(e.what()),
+              dir + "/no/such/dir/x.png: output directory " + dir + "/no/such/dir does not exist");
   }
 }
 

@@ -336,10 +336,22 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
                          "/x.h5 --plastic --relax-tolerance inf",
                      "--relax-tolerance: must lie in [0, 10]");
   // The material's normal density: a fraction in (0, 1], recorded in the session.
-  for (const char* bad : {"0", "-0.5", "1.5", "nan"}) {
+  for (const char* bad : {"0", "-0.5", "1.5"}) {
     expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
                            "/x.h5 --plastic --normal-density " + bad,
                        "--normal-density: must lie in (0, 1] (a fraction of density 1)");
+  }
+  // Issue 27: NaN is refused by every floating-point option alike, before its own check.
+  for (const char* flag : {"--normal-density", "--slip-ratio", "-E", "--max-force-n"}) {
+    expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
+                           "/x.h5 --plastic " + flag + " nan",
+                       std::string(flag == std::string("-E") ? "--youngs-modulus-pa" : flag) +
+                           ": must be a number, not nan (see hapvox --help)");
+  }
+  for (const char* bad : {"-1", "-inf"}) {
+    expect_input_error(
+        "replay " + press_trace() + " --volume block -o " + dir + "/x.h5 --slip-ratio " + bad,
+        "--slip-ratio: must be zero or positive (inf: the paper's fixed x0)");
   }
   expect_input_error(
       "replay " + press_trace() + " --volume block -o " + dir + "/x.h5 --normal-density 0.5",
