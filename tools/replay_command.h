@@ -43,7 +43,8 @@ struct ReplayFlags {
   std::string trace_path;
   std::string device;  // --device udp:HOST:PORT: a live device through the bridge
   const LiveFrontEnd* front_end = nullptr;  // sculpt: a window's device instead of either
-  std::string trace_out;  // --trace-out T.csv: the positions a live session's ticks used
+  std::string trace_out;    // --trace-out T.csv: the positions a live session's ticks used
+  std::string device_peer;  // --device-peer HOST:PORT: the one sender --device takes
   double silence_timeout_s = 0.01;
   double end_after_silence_s = 5.0;
   std::string volume;
@@ -133,6 +134,8 @@ Eigen::Vector3d above_volume_mm(const engine::DensityField& field, double tool_r
 
 /// --device's flags (tools/replay_bridge.cc); InputError naming the flag.
 void check_bridge_flags(const ReplayFlags& f);
+/// --device-peer's HOST:PORT (or udp:HOST:PORT), resolved. InputError naming the flag.
+haptics::SocketAddress resolve_device_peer(const std::string& spec);
 /// The bridge device listening on --device; Ctrl-C and SIGTERM end its session cleanly.
 std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
     const ReplayFlags& f, const haptics::DeviceTransform& transform);
