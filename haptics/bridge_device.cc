@@ -94,7 +94,12 @@ bool BridgeDevice::drain(Clock::time_point now) {
       continue;
     }
     PositionPacket packet;
-    const PacketError error = parse_position(buffer_, static_cast<std::size_t>(length), &packet);
+    const PacketError error =
+        parse_position(buffer_, static_cast<std::size_t>(length), &packet, key());
+    if (error == PacketError::bad_tag) {
+      ++counters_.unauthenticated;
+      continue;
+    }
     if (error != PacketError::none) {
       ++counters_.malformed[static_cast<int>(error)];
       continue;
@@ -192,8 +197,8 @@ void BridgeDevice::send(std::size_t tick, const Vec3d& force_device_n, const Tic
   answer.header.sent_ns = steady_ns(now);
   answer.echo_sequence = latest_.header.sequence;
   answer.echo_sent_ns = latest_.header.sent_ns;
-  std::uint8_t bytes[kForcePacketBytes];
-  const std::size_t size = encode_force(answer, bytes);
+  std::uint8_t bytes[kForcePacketBytes + kBridgeTagBytes];
+  const std::size_t size = encode_force(answer, bytes, key());
   if (socket_.send_to(bytes, size, peer_)) {
     ++counters_.answers;
   } else {

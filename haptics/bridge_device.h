@@ -16,15 +16,20 @@
 // session: datagrams from any other address or port are counted (`foreign`) and dropped
 // unread, never answered, and answers go to the bound device alone. Sequence numbers are
 // judged within a window (haptics/bridge_sequence.h), so a stray or forged number far from
-// the stream's is refused (`out_of_window`) and the real stream goes on undisturbed.
+// the stream's is refused (`out_of_window`) and the real stream goes on undisturbed. With a
+// key (`BridgeOptions::key`) every packet both ways carries an HMAC-SHA256 tag, and one
+// whose tag is wrong or missing is refused (`unauthenticated`) before anything in it is
+// used, the binding included.
 //
 // wait_for_tick(), read() and send() run on the force thread: ppoll, recvfrom and sendto on
-// one non-blocking socket, no locks, no allocation, no exceptions.
+// one non-blocking socket, no locks, no allocation, no exceptions (a key's tags are checked
+// and made there too: haptics/bridge_key.h says why that allocates nothing).
 
 #include <atomic>
 #include <cstdint>
 #include <optional>
 
+#include "haptics/bridge_key.h"
 #include "haptics/bridge_packet.h"
 #include "haptics/bridge_sequence.h"
 #include "haptics/device.h"
@@ -52,6 +57,8 @@ struct BridgeOptions {
   /// The device's address and port: only its datagrams are taken (none: the first sender
   /// of a valid packet is bound for the session).
   std::optional<SocketAddress> peer;
+  /// A shared key: positions must carry its tag, answers carry it (none: untagged packets).
+  std::optional<BridgeKey> key;
   /// The sequence window: a position more than this many numbers ahead of the newest (plus
   /// twice the loop's rate times the time since the newest came, for a device that kept
   /// counting through a silence) or behind it is refused.
@@ -67,7 +74,8 @@ struct BridgeCounters {
   std::uint64_t lost = 0;           // sequence numbers never seen (within the 64-packet window)
   std::uint64_t out_of_window = 0;  // sequence numbers too far from the stream's: refused
   std::uint64_t foreign = 0;        // datagrams from a sender other than the bound device: dropped
-  std::uint64_t malformed[kPacketErrorCount] = {};  // by PacketError
+  std::uint64_t unauthenticated = 0;  // keyed: a wrong or missing tag (PacketError::bad_tag)
+  std::uint64_t malformed[kPacketErrorCount] = {};  // by PacketError (bad_tag: above)
   std::uint64_t held_ticks = 0;                     // ticks without a fresh position
   std::uint64_t silent_ticks = 0;    // ticks past the silence timeout (force ramping out)
   std::uint64_t silences = 0;        // times the device fell silent
@@ -100,6 +108,7 @@ class BridgeDevice final : public Device {
   double silence_timeout_s() const { return options_.silence_timeout_s; }
   /// The device the session is bound to (none before its first valid packet).
   std::optional<SocketAddress> peer() const;
+  bool keyed() const { return options_.key.has_value(); }
 
  private:
   // Takes waiting datagrams up to the first fresh position; true when there was one.
@@ -107,6 +116,7 @@ class BridgeDevice final : public Device {
   void take(const PositionPacket& packet, Clock::time_point now);
   // How much further than max_sequence_jump a fresh number may be now.
   std::uint32_t jump_allowance(Clock::time_point now) const;
+  const BridgeKey* key() const { return options_.key ? &*options_.key : nullptr; }
 
   struct Echo {
     std::uint32_t sequence = 0;

@@ -45,6 +45,7 @@ struct ReplayFlags {
   const LiveFrontEnd* front_end = nullptr;  // sculpt: a window's device instead of either
   std::string trace_out;    // --trace-out T.csv: the positions a live session's ticks used
   std::string device_peer;  // --device-peer HOST:PORT: the one sender --device takes
+  std::string device_key;   // --device-key FILE: the bridge's shared key (HMAC tags)
   double silence_timeout_s = 0.01;
   double end_after_silence_s = 5.0;
   std::string volume;
@@ -132,7 +133,7 @@ haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const hapti
 /// (of `tool_radius_mm`) 2 mm clear of it (world mm).
 Eigen::Vector3d above_volume_mm(const engine::DensityField& field, double tool_radius_mm);
 
-/// --device's flags (tools/replay_bridge.cc); InputError naming the flag.
+/// --device's flags (tools/replay_bridge.cc); InputError naming the flag (or the key file).
 void check_bridge_flags(const ReplayFlags& f);
 /// --device-peer's HOST:PORT (or udp:HOST:PORT), resolved. InputError naming the flag.
 haptics::SocketAddress resolve_device_peer(const std::string& spec);

@@ -1,12 +1,15 @@
 // Who may drive the tool through the device bridge (docs/formats.md, "Who may drive the
 // tool"), end to end on loopback in one process: the device the bridge bound is the only
 // sender it takes and answers; a forged sequence jump is refused and the device's stream goes
-// on.
+// on; with a key, only rightly tagged packets are taken, and checking them allocates nothing
+// on the force thread (OpenSSL's allocations counted too).
 
 #include <gtest/gtest.h>
+#include <openssl/crypto.h>
 
 #include <chrono>
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 #include <thread>
 #include <vector>
@@ -18,11 +21,26 @@ namespace {
 
 using bridge_testing::BridgeRun;
 using bridge_testing::BridgeRunSetup;
+using bridge_testing::lockstep_forces;
 using bridge_testing::press_ticks;
 using bridge_testing::run_bridge_with;
 using bridge_testing::temp_path;
 using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
+
+// OpenSSL's allocations, counted as the force thread's (installed before main, before
+// OpenSSL allocates anything; CRYPTO_set_mem_functions refuses once it has).
+void* counted_malloc(std::size_t n, const char*, int) {
+  ++testing::allocations_on_this_thread;
+  return std::malloc(n);
+}
+void* counted_realloc(void* p, std::size_t n, const char*, int) {
+  ++testing::allocations_on_this_thread;
+  return std::realloc(p, n);
+}
+void counted_free(void* p, const char*, int) { std::free(p); }
+const bool g_openssl_allocations_counted =
+    CRYPTO_set_mem_functions(counted_malloc, counted_realloc, counted_free) == 1;
 
 // A forger's position: the tool 13.5 mm deep in the block (if a tick used it, the force
 // would jump to the device's limit), the dead-man held.
@@ -36,9 +54,10 @@ PositionPacket forged(std::uint32_t sequence) {
   return p;
 }
 
-void send_packet(UdpSocket& from, const SocketAddress& to, const PositionPacket& p) {
-  std::uint8_t bytes[kPositionPacketBytes];
-  from.send_to(bytes, encode_position(p, bytes), to);
+void send_packet(UdpSocket& from, const SocketAddress& to, const PositionPacket& p,
+                 const BridgeKey* key = nullptr) {
+  std::uint8_t bytes[kPositionPacketBytes + kBridgeTagBytes];
+  from.send_to(bytes, encode_position(p, bytes, key), to);
 }
 
 // The client's sequence number about now (it sends number k at k ms after it starts).
@@ -146,6 +165,61 @@ TEST(BridgeDevice, AForgedSequenceJumpLeavesTheDevicesStreamAlone) {
   EXPECT_EQ(run.bridge.foreign, 0u);
   EXPECT_FALSE(session_used_forged(path));
   expect_device_undisturbed(run, ticks);
+}
+
+// With a key, the device's own address is not enough: packets from it with another key's
+// tag, or none, are refused (unauthenticated) and move nothing; the device's tagged stream
+// gets the lockstep replay's forces, tagged (the client checks them), and checking and
+// tagging allocate nothing on the force thread, in OpenSSL either.
+TEST(BridgeDevice, AKeyedBridgeTakesOnlyRightlyTaggedPackets) {
+  ASSERT_TRUE(g_openssl_allocations_counted);
+  const ResampledTrace ticks = press_ticks(0.3);
+  const std::vector<Vec3d> expected = lockstep_forces(ticks);
+  const BridgeKey key("the device's key"), wrong("someone else's key");
+  BridgeRunSetup setup;
+  setup.bridge.key = key;
+  setup.client.key = key;
+  setup.beside = [&](UdpSocket& device, const SocketAddress& to) {
+    const Clock::time_point start = Clock::now();
+    std::this_thread::sleep_for(milliseconds(200));
+    for (int i = 0; i < 40; ++i) {  // numbers just ahead of the device's: fresh if taken
+      send_packet(device, to, forged(about_now(start) + 3), i % 2 == 0 ? &wrong : nullptr);
+      std::this_thread::sleep_for(milliseconds(2));
+    }
+  };
+  const std::string path = temp_path("bridge_keyed.h5");
+  const BridgeRun run = run_bridge_with(ticks, setup, path);
+  EXPECT_EQ(run.bridge.unauthenticated, 40u);
+  EXPECT_EQ(run.bridge.out_of_window, 0u);
+  EXPECT_EQ(run.client.unauthenticated, 0u);
+  EXPECT_EQ(run.client.malformed, 0u);
+  EXPECT_FALSE(session_used_forged(path));
+  expect_device_undisturbed(run, ticks);
+  std::size_t compared = 0;
+  for (std::size_t k = 100; k < ticks.position_mm.size(); ++k) {
+    const BridgeAnswer& answer = run.client.answers[k];
+    if (!answer.answered || (answer.status & kForceRamping) != 0) continue;
+    ++compared;
+    ASSERT_EQ(answer.force_n, expected[k]) << "sequence " << k;
+  }
+  EXPECT_GE(compared, 200u);
+}
+
+// A device with the wrong key never starts the session: every packet refused, none
+// answered, no tick, nobody bound.
+TEST(BridgeDevice, ADeviceWithTheWrongKeyIsNeverAnswered) {
+  const ResampledTrace ticks = press_ticks(0.0);
+  BridgeRunSetup setup;
+  setup.bridge.key = BridgeKey("the right key");
+  setup.bridge.end_after_silence_s = 2.0;  // the session ends, never having started
+  setup.client.key = BridgeKey("the wrong key");
+  const BridgeRun run = run_bridge_with(ticks, setup, temp_path("bridge_wrong_key.h5"));
+  EXPECT_GT(run.client.sent, 500u);
+  EXPECT_EQ(run.bridge.unauthenticated, run.client.sent);
+  EXPECT_EQ(run.bridge.fresh, 0u);
+  EXPECT_EQ(run.client.force_packets, 0u);
+  EXPECT_EQ(run.summary.ticks, 0u);
+  EXPECT_FALSE(run.peer.has_value());
 }
 
 }  // namespace

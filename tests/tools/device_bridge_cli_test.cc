@@ -1,6 +1,7 @@
 // hapvox replay --device udp:HOST:PORT with hapvox device-sim, as two processes on loopback:
 // the forces the device-sim gets back are those of a direct replay of its trace; with
-// --device-peer only the named sender drives the tool; bad flags are one line each.
+// --device-key only the key's device drives the tool, with --device-peer only the named
+// sender; bad flags are one line each.
 
 #include <gtest/gtest.h>
 
@@ -292,28 +293,103 @@ TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
                "--drop: must lie in [0, 0.5]");
 }
 
-// --device-peer's spec, and the flag without --device, are one line each.
-TEST(DeviceBridgeCli, PeerMistakesAreOneLineAndMakeNoFile) {
+// --device-key FILE: missing, empty or a directory is one line naming the file, for hapvox
+// and device-sim alike; --device-peer's spec and both flags without --device likewise.
+TEST(DeviceBridgeCli, KeyAndPeerMistakesAreOneLineAndMakeNoFile) {
   const std::string dir = scratch_dir();
   ASSERT_EQ(run_hapvox("trace make press -o " + dir + "/t.csv").exit_code, 0);
+  std::ofstream(dir + "/empty.key").close();
+  std::filesystem::create_directories(dir + "/keys");
   const std::string out = " -o " + dir + "/s.h5";
   auto expect_error = [&](const std::string& args, const std::string& expected) {
     expect_refused(args, expected, dir + "/s.h5");
   };
   const std::string live = "replay --device udp:127.0.0.1:47001 --realtime --volume block:dims=48";
+  expect_error(live + " --device-key " + dir + "/none.key" + out,
+               dir + "/none.key: cannot open file");
+  expect_error(live + " --device-key " + dir + "/empty.key" + out,
+               dir +
+                   "/empty.key: the key file is empty (it holds the shared key's bytes, e.g. "
+                   "32 from /dev/urandom)");
+  expect_error(live + " --device-key " + dir + "/keys" + out, dir + "/keys: is a directory");
   expect_error(live + " --device-peer 127.0.0.1" + out,
                "--device-peer: '127.0.0.1': expected udp:HOST:PORT (e.g. udp:127.0.0.1:47001 or "
                "udp:[::1]:47001)");
   expect_error(live + " --device-peer udp:127.0.0.1:0" + out,
                "--device-peer: port 0: name the port the device sends from");
+  expect_error(
+      "replay " + dir + "/t.csv --volume block:dims=48 --device-key " + dir + "/empty.key" + out,
+      "--device-key: needs --device (the bridge's shared key)");
   expect_error("replay " + dir + "/t.csv --volume block:dims=48 --device-peer 127.0.0.1:5" + out,
                "--device-peer: needs --device (the bridge's one sender)");
+  expect_error(
+      "device-sim " + dir + "/t.csv --to udp:127.0.0.1:47001 --device-key " + dir + "/empty.key",
+      dir +
+          "/empty.key: the key file is empty (it holds the shared key's bytes, e.g. "
+          "32 from /dev/urandom)");
+  expect_error(
+      "device-sim " + dir + "/t.csv --to udp:127.0.0.1:47001 --device-key " + dir + "/none.key",
+      dir + "/none.key: cannot open file");
 }
 
 std::map<std::string, std::string> session_attributes(const std::string& path) {
   const haptics::SessionInfo info = haptics::read_session_info(path);
   EXPECT_TRUE(info.complete) << path;
   return std::map<std::string, std::string>(info.attributes.begin(), info.attributes.end());
+}
+
+// replay --device --device-key K: a device-sim with another key is refused packet by packet
+// (it hears nothing back, the tool does not move, and the session waits on); the one with K
+// then drives the tool and gets the direct replay's forces, tagged.
+TEST(DeviceBridgeCli, AKeyedSessionTakesOnlyTheKeysDevice) {
+  const std::string dir = scratch_dir();
+  ASSERT_EQ(run_hapvox("trace make press-release -o " + dir +
+                       "/press.csv --start-mm 24,24,29 --travel-mm 3.5 --hold-s 0.3")
+                .exit_code,
+            0);
+  std::string key_bytes(32, '\0');
+  for (std::size_t i = 0; i < key_bytes.size(); ++i) key_bytes[i] = static_cast<char>(37 * i + 11);
+  std::ofstream(dir + "/right.key", std::ios::binary) << key_bytes;
+  std::ofstream(dir + "/wrong.key", std::ios::binary) << "not the key";
+  const std::string tool = " --volume block:dims=48 --tool-diameter-mm 8 -q";
+  ASSERT_EQ(
+      run_hapvox("replay " + dir + "/press.csv" + tool + " -o " + dir + "/direct.h5").exit_code, 0);
+  const std::uint16_t port = free_port();
+  const std::string device = "udp:127.0.0.1:" + std::to_string(port);
+  LiveSession hapvox(port, "replay --device " + device + " --device-key " + dir + "/right.key" +
+                               tool + " --realtime --no-mlock -o " + dir + "/live.h5");
+  const testing::CommandResult wrong =
+      run_hapvox("device-sim " + dir + "/press.csv --to " + device + " --no-end --device-key " +
+                 dir + "/wrong.key");
+  const testing::CommandResult right =
+      run_hapvox("device-sim " + dir + "/press.csv --to " + device + " --device-key " + dir +
+                 "/right.key --forces-out " + dir + "/forces.csv");
+  const testing::CommandResult live = hapvox.finish();
+  ASSERT_EQ(wrong.exit_code, 0) << wrong.err;
+  ASSERT_EQ(right.exit_code, 0) << right.err;
+  ASSERT_EQ(live.exit_code, 0) << live.err;
+  EXPECT_NE(wrong.out.find(" 0 answered, 0 force packets back, keyed"), std::string::npos)
+      << wrong.out;
+  EXPECT_NE(right.out.find(", keyed\n"), std::string::npos) << right.out;
+  EXPECT_EQ(right.out.find("refused"), std::string::npos) << right.out;  // every tag right
+  EXPECT_NE(live.out.find("; ended by the sender"), std::string::npos) << live.out;
+  EXPECT_NE(live.out.find(" unauthenticated; device 127.0.0.1:"), std::string::npos) << live.out;
+
+  EXPECT_GE(expect_direct_forces(dir + "/forces.csv", dir + "/direct.h5"), 100u);
+  std::map<std::string, std::string> attributes = session_attributes(dir + "/live.h5");
+  EXPECT_EQ(attributes["bridge_keyed"], "1");
+  EXPECT_GT(std::stoll(attributes["bridge_unauthenticated"]), 500);  // the wrong key's
+  EXPECT_EQ(attributes["bridge_foreign"], "0");
+  EXPECT_EQ(attributes["bridge_late"], "0");
+  EXPECT_EQ(attributes["bridge_lost"], "0");
+  EXPECT_EQ(attributes["bridge_out_of_window"], "0");
+  EXPECT_EQ(attributes["bridge_peer"].rfind("127.0.0.1:", 0), 0u) << attributes["bridge_peer"];
+  // No tick used a wrong-key packet: the session's first position is the right device's.
+  const std::vector<double> sequence =
+      haptics::read_session_column(dir + "/live.h5", "/device_sequence");
+  ASSERT_FALSE(sequence.empty());
+  EXPECT_EQ(sequence.front(), 0.0);
+  EXPECT_GT(std::stoll(attributes["bridge_fresh"]), 500);
 }
 
 // replay --device --device-peer HOST:PORT: a device-sim sending from any other port is
