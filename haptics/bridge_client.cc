@@ -20,16 +20,19 @@ std::uint64_t now_ns() {
 
 class Client {
  public:
-  Client(UdpSocket& socket, const SocketAddress& to, BridgeClientResult& result)
-      : socket_(socket), to_(to), result_(result) {}
+  Client(UdpSocket& socket, const SocketAddress& to, const BridgeKey* key,
+         BridgeClientResult& result)
+      : socket_(socket), to_(to), key_(key), result_(result) {}
 
   void take_answers() {
     for (;;) {
       const long length = socket_.receive(buffer_, sizeof buffer_, nullptr);
       if (length < 0) return;
       ForcePacket force;
-      if (parse_force(buffer_, static_cast<std::size_t>(length), &force) != PacketError::none) {
-        ++result_.malformed;
+      const PacketError error =
+          parse_force(buffer_, static_cast<std::size_t>(length), &force, key_);
+      if (error != PacketError::none) {
+        ++(error == PacketError::bad_tag ? result_.unauthenticated : result_.malformed);
         continue;
       }
       ++result_.force_packets;
@@ -52,8 +55,8 @@ class Client {
   void send(PositionPacket packet) {
     packet.header.sent_ns = now_ns();
     packet.round_trip_ns = last_round_trip_ns_;
-    std::uint8_t bytes[kPositionPacketBytes];
-    const std::size_t size = encode_position(packet, bytes);
+    std::uint8_t bytes[kPositionPacketBytes + kBridgeTagBytes];
+    const std::size_t size = encode_position(packet, bytes, key_);
     socket_.send_to(bytes, size, to_);
     ++result_.sent;
   }
@@ -61,6 +64,7 @@ class Client {
  private:
   UdpSocket& socket_;
   const SocketAddress& to_;
+  const BridgeKey* key_;
   BridgeClientResult& result_;
   std::uint32_t last_round_trip_ns_ = 0;
   std::uint8_t buffer_[kBridgeMaxDatagramBytes] = {};
@@ -74,7 +78,7 @@ BridgeClientResult play_through_bridge(const ResampledTrace& trace, UdpSocket& s
   BridgeClientResult result;
   const std::size_t ticks = trace.position_mm.size();
   result.answers.resize(ticks + 1);  // the end packet's too
-  Client client(socket, to, result);
+  Client client(socket, to, options.key ? &*options.key : nullptr, result);
   std::mt19937_64 random(options.seed);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   const auto dt = std::chrono::nanoseconds(std::llround(1e9 / trace.rate_hz));

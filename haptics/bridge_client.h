@@ -10,9 +10,11 @@
 // swap a fraction with the next one (reordering) and send a fraction twice.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "haptics/bridge_key.h"
 #include "haptics/bridge_packet.h"
 #include "haptics/latency_histogram.h"
 #include "haptics/trace.h"
@@ -33,6 +35,9 @@ struct BridgeClientOptions {
   /// After the trace, how long to keep taking answers before the end packet.
   double linger_s = 0.05;
   bool send_end = true;  // end the session when the trace is done
+  /// The session's shared key (hapvox's --device-key): positions are tagged, and answers
+  /// whose tag is wrong or missing are refused.
+  std::optional<BridgeKey> key;
 };
 
 struct BridgeAnswer {
@@ -46,9 +51,10 @@ struct BridgeAnswer {
 struct BridgeClientResult {
   std::vector<BridgeAnswer> answers;  // by sequence number = trace tick
   std::uint64_t sent = 0, dropped = 0, reordered = 0, duplicated = 0;
-  std::uint64_t answered = 0;       // positions with an answer
-  std::uint64_t force_packets = 0;  // every force packet that came back
-  std::uint64_t malformed = 0;      // datagrams that were not force packets
+  std::uint64_t answered = 0;         // positions with an answer
+  std::uint64_t force_packets = 0;    // every force packet that came back
+  std::uint64_t malformed = 0;        // datagrams that were not force packets
+  std::uint64_t unauthenticated = 0;  // keyed: answers with a wrong or missing tag
   LatencyHistogram round_trip;
   double wall_s = 0.0;
 };

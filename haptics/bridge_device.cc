@@ -32,7 +32,27 @@ BridgeDevice::BridgeDevice(UdpSocket socket, const DeviceTransform& transform,
           nanoseconds(std::llround(options.wait_periods * static_cast<double>(period_.count())))),
       silence_timeout_(seconds_to_ns(options.silence_timeout_s)),
       end_after_silence_(seconds_to_ns(options.end_after_silence_s)),
-      created_(Clock::now()) {}
+      window_(options.max_sequence_jump),
+      created_(Clock::now()) {
+  if (options_.peer) {
+    peer_ = *options_.peer;
+    bound_ = true;
+  }
+}
+
+std::optional<SocketAddress> BridgeDevice::peer() const {
+  if (!bound_) return std::nullopt;
+  return peer_;
+}
+
+std::uint32_t BridgeDevice::jump_allowance(Clock::time_point now) const {
+  if (!started_ || now <= last_fresh_) return 0;
+  // What a device at up to twice the loop's rate may have sent since its newest packet came
+  // (it kept counting through a silence); the window caps it (kSequenceJumpCeiling).
+  const double since_s = std::chrono::duration<double>(now - last_fresh_).count();
+  return static_cast<std::uint32_t>(
+      std::min(2.0 * options_.rate_hz * since_s, static_cast<double>(kSequenceJumpCeiling)));
+}
 
 bool BridgeDevice::finished() const {
   if (ended_) return true;
@@ -44,12 +64,10 @@ bool BridgeDevice::finished() const {
   return false;
 }
 
-void BridgeDevice::take(const PositionPacket& packet, const SocketAddress& from,
-                        Clock::time_point now) {
+void BridgeDevice::take(const PositionPacket& packet, Clock::time_point now) {
   echo_ = Echo{packet.header.sequence, packet.header.sent_ns, now};
   has_echo_ = true;
   latest_ = packet;
-  sender_ = from;
   last_fresh_ = now;
   started_ = true;
   fresh_this_tick_ = true;
@@ -62,22 +80,36 @@ void BridgeDevice::take(const PositionPacket& packet, const SocketAddress& from,
 
 bool BridgeDevice::drain(Clock::time_point now) {
   bool got_fresh = false;
+  const std::uint32_t allowance = jump_allowance(now);
   // Up to the first fresh position: each gets a tick of its own (a backlog runs tick after
   // tick), so every position is stepped through the model in order. Bounded, so a flood of
-  // stale or malformed datagrams cannot hold the force thread here.
+  // stale, foreign or malformed datagrams cannot hold the force thread here.
   for (int i = 0; i < 256 && !got_fresh; ++i) {
     SocketAddress from;
     const long length = socket_.receive(buffer_, sizeof buffer_, &from);
     if (length < 0) break;
     ++counters_.datagrams;
+    if (bound_ && !same_endpoint(from, peer_)) {  // not our device: not even read
+      ++counters_.foreign;
+      continue;
+    }
     PositionPacket packet;
-    const PacketError error = parse_position(buffer_, static_cast<std::size_t>(length), &packet);
+    const PacketError error =
+        parse_position(buffer_, static_cast<std::size_t>(length), &packet, key());
+    if (error == PacketError::bad_tag) {
+      ++counters_.unauthenticated;
+      continue;
+    }
     if (error != PacketError::none) {
       ++counters_.malformed[static_cast<int>(error)];
       continue;
     }
-    if (window_.arrive(packet.header.sequence) == Arrival::fresh) {
-      take(packet, from, now);
+    if (!bound_) {  // the first valid packet's sender is the session's device
+      peer_ = from;
+      bound_ = true;
+    }
+    if (window_.arrive(packet.header.sequence, allowance) == Arrival::fresh) {
+      take(packet, now);
       got_fresh = true;
     }
   }
@@ -85,6 +117,7 @@ bool BridgeDevice::drain(Clock::time_point now) {
   counters_.late = window_.late();
   counters_.duplicates = window_.duplicates();
   counters_.lost = window_.lost();
+  counters_.out_of_window = window_.out_of_window();
   return got_fresh;
 }
 
@@ -164,9 +197,9 @@ void BridgeDevice::send(std::size_t tick, const Vec3d& force_device_n, const Tic
   answer.header.sent_ns = steady_ns(now);
   answer.echo_sequence = latest_.header.sequence;
   answer.echo_sent_ns = latest_.header.sent_ns;
-  std::uint8_t bytes[kForcePacketBytes];
-  const std::size_t size = encode_force(answer, bytes);
-  if (socket_.send_to(bytes, size, sender_)) {
+  std::uint8_t bytes[kForcePacketBytes + kBridgeTagBytes];
+  const std::size_t size = encode_force(answer, bytes, key());
+  if (socket_.send_to(bytes, size, peer_)) {
     ++counters_.answers;
   } else {
     ++counters_.send_failures;

@@ -11,12 +11,25 @@
 // position, and ramps back in when positions come again. A released dead-man button does
 // the same. Loss, reordering, duplicates and malformed datagrams are counted, never fatal.
 //
+// Whom it trusts (docs/formats.md, "Who may drive the tool"): one device per session. The
+// first sender of a valid packet (or the one `BridgeOptions::peer` names) is bound for the
+// session: datagrams from any other address or port are counted (`foreign`) and dropped
+// unread, never answered, and answers go to the bound device alone. Sequence numbers are
+// judged within a window (haptics/bridge_sequence.h), so a stray or forged number far from
+// the stream's is refused (`out_of_window`) and the real stream goes on undisturbed. With a
+// key (`BridgeOptions::key`) every packet both ways carries an HMAC-SHA256 tag, and one
+// whose tag is wrong or missing is refused (`unauthenticated`) before anything in it is
+// used, the binding included.
+//
 // wait_for_tick(), read() and send() run on the force thread: ppoll, recvfrom and sendto on
-// one non-blocking socket, no locks, no allocation, no exceptions.
+// one non-blocking socket, no locks, no allocation, no exceptions (a key's tags are checked
+// and made there too: haptics/bridge_key.h says why that allocates nothing).
 
 #include <atomic>
 #include <cstdint>
+#include <optional>
 
+#include "haptics/bridge_key.h"
 #include "haptics/bridge_packet.h"
 #include "haptics/bridge_sequence.h"
 #include "haptics/device.h"
@@ -41,6 +54,15 @@ struct BridgeOptions {
   /// take what arrived since the last (a position waits up to a period for its answer): the
   /// naive design, kept as `hapvox bench bridge`'s baseline.
   bool device_paced = true;
+  /// The device's address and port: only its datagrams are taken (none: the first sender
+  /// of a valid packet is bound for the session).
+  std::optional<SocketAddress> peer;
+  /// A shared key: positions must carry its tag, answers carry it (none: untagged packets).
+  std::optional<BridgeKey> key;
+  /// The sequence window: a position more than this many numbers ahead of the newest (plus
+  /// twice the loop's rate times the time since the newest came, for a device that kept
+  /// counting through a silence) or behind it is refused.
+  std::uint32_t max_sequence_jump = kSequenceMaxJump;
 };
 
 /// What the bridge saw, for the session (read after the loop has joined its threads).
@@ -49,8 +71,11 @@ struct BridgeCounters {
   std::uint64_t fresh = 0;      // positions used by a tick
   std::uint64_t late = 0;       // reordered: older than a position already used
   std::uint64_t duplicates = 0;
-  std::uint64_t lost = 0;  // sequence numbers never seen (within the 64-packet window)
-  std::uint64_t malformed[kPacketErrorCount] = {};  // by PacketError
+  std::uint64_t lost = 0;           // sequence numbers never seen (within the 64-packet window)
+  std::uint64_t out_of_window = 0;  // sequence numbers too far from the stream's: refused
+  std::uint64_t foreign = 0;        // datagrams from a sender other than the bound device: dropped
+  std::uint64_t unauthenticated = 0;  // keyed: a wrong or missing tag (PacketError::bad_tag)
+  std::uint64_t malformed[kPacketErrorCount] = {};  // by PacketError (bad_tag: above)
   std::uint64_t held_ticks = 0;                     // ticks without a fresh position
   std::uint64_t silent_ticks = 0;    // ticks past the silence timeout (force ramping out)
   std::uint64_t silences = 0;        // times the device fell silent
@@ -81,11 +106,17 @@ class BridgeDevice final : public Device {
   const BridgeCounters& counters() const { return counters_; }
   std::uint16_t local_port() const { return socket_.local_port(); }
   double silence_timeout_s() const { return options_.silence_timeout_s; }
+  /// The device the session is bound to (none before its first valid packet).
+  std::optional<SocketAddress> peer() const;
+  bool keyed() const { return options_.key.has_value(); }
 
  private:
   // Takes waiting datagrams up to the first fresh position; true when there was one.
   bool drain(Clock::time_point now);
-  void take(const PositionPacket& packet, const SocketAddress& from, Clock::time_point now);
+  void take(const PositionPacket& packet, Clock::time_point now);
+  // How much further than max_sequence_jump a fresh number may be now.
+  std::uint32_t jump_allowance(Clock::time_point now) const;
+  const BridgeKey* key() const { return options_.key ? &*options_.key : nullptr; }
 
   struct Echo {
     std::uint32_t sequence = 0;
@@ -104,7 +135,8 @@ class BridgeDevice final : public Device {
   SequenceWindow window_;
   BridgeCounters counters_;
   PositionPacket latest_;     // the newest fresh position
-  SocketAddress sender_;      // where it came from: where forces go
+  SocketAddress peer_;        // the bound device: where positions come from, forces go
+  bool bound_ = false;        // peer_ is set (options.peer, or a first valid packet)
   bool started_ = false;      // a first position came
   bool end_pending_ = false;  // an end-of-session packet came: its tick runs, then the end
   bool ended_ = false;

@@ -56,9 +56,10 @@ void write_header(Writer& w, const PacketHeader& h, PacketKind kind) {
 }
 
 // The header's checks, in the order a receiver can make them: length first (nothing is
-// read past `size`), then what the bytes say.
+// read past `size`), then what the bytes say; with a key, the tag before the body is read.
 PacketError read_header(const std::uint8_t* data, std::size_t size, PacketKind kind,
-                        std::size_t packet_bytes, PacketHeader* header, Reader& r) {
+                        std::size_t packet_bytes, const BridgeKey* key, PacketHeader* header,
+                        Reader& r) {
   if (size < kBridgeHeaderBytes) return PacketError::too_short;
   if (std::memcmp(data, kBridgeMagic.data(), kBridgeMagic.size()) != 0) {
     return PacketError::bad_magic;
@@ -71,8 +72,13 @@ PacketError read_header(const std::uint8_t* data, std::size_t size, PacketKind k
   if (header->version != kBridgeVersion) return PacketError::bad_version;
   if (got_kind != static_cast<std::uint16_t>(kind)) return PacketError::wrong_kind;
   header->kind = kind;
-  if (size < packet_bytes) return PacketError::too_short;
-  if (size > packet_bytes) return PacketError::oversized;
+  if (key != nullptr && size == packet_bytes) return PacketError::bad_tag;  // none
+  const std::size_t tagged_bytes = packet_bytes + (key != nullptr ? kBridgeTagBytes : 0);
+  if (size < tagged_bytes) return PacketError::too_short;
+  if (size > tagged_bytes) return PacketError::oversized;
+  if (key != nullptr && !key->verify(data, packet_bytes, data + packet_bytes)) {
+    return PacketError::bad_tag;
+  }
   r = Reader(data + kBridgeHeaderBytes);
   return PacketError::none;
 }
@@ -97,11 +103,24 @@ const char* packet_error_name(PacketError error) {
       return "not finite";
     case PacketError::bad_orientation:
       return "orientation not a unit quaternion";
+    case PacketError::bad_tag:
+      return "wrong or missing tag";
   }
   return "unknown";
 }
 
-std::size_t encode_position(const PositionPacket& p, std::uint8_t* out) {
+namespace {
+
+// Appends the tag of the `size` bytes at `out` when there is a key. Returns the new size.
+std::size_t append_tag(std::uint8_t* out, std::size_t size, const BridgeKey* key) {
+  if (key == nullptr) return size;
+  key->sign(out, size, out + size);
+  return size + kBridgeTagBytes;
+}
+
+}  // namespace
+
+std::size_t encode_position(const PositionPacket& p, std::uint8_t* out, const BridgeKey* key) {
   Writer w(out);
   write_header(w, p.header, PacketKind::position);
   for (int a = 0; a < 3; ++a) w.f64(p.position_mm[a]);
@@ -109,10 +128,10 @@ std::size_t encode_position(const PositionPacket& p, std::uint8_t* out) {
   w.u32(p.buttons);
   w.u32(p.flags);
   w.u32(p.round_trip_ns);
-  return w.size();
+  return append_tag(out, w.size(), key);
 }
 
-std::size_t encode_force(const ForcePacket& p, std::uint8_t* out) {
+std::size_t encode_force(const ForcePacket& p, std::uint8_t* out, const BridgeKey* key) {
   Writer w(out);
   write_header(w, p.header, PacketKind::force);
   w.u32(p.echo_sequence);
@@ -120,14 +139,15 @@ std::size_t encode_force(const ForcePacket& p, std::uint8_t* out) {
   w.u64(p.tick);
   for (int a = 0; a < 3; ++a) w.f64(p.force_n[a]);
   w.u32(p.status);
-  return w.size();
+  return append_tag(out, w.size(), key);
 }
 
-PacketError parse_position(const std::uint8_t* data, std::size_t size, PositionPacket* out) {
+PacketError parse_position(const std::uint8_t* data, std::size_t size, PositionPacket* out,
+                           const BridgeKey* key) {
   PositionPacket p;
   Reader r(data);
   if (const PacketError e =
-          read_header(data, size, PacketKind::position, kPositionPacketBytes, &p.header, r);
+          read_header(data, size, PacketKind::position, kPositionPacketBytes, key, &p.header, r);
       e != PacketError::none) {
     return e;
   }
@@ -149,11 +169,12 @@ PacketError parse_position(const std::uint8_t* data, std::size_t size, PositionP
   return PacketError::none;
 }
 
-PacketError parse_force(const std::uint8_t* data, std::size_t size, ForcePacket* out) {
+PacketError parse_force(const std::uint8_t* data, std::size_t size, ForcePacket* out,
+                        const BridgeKey* key) {
   ForcePacket p;
   Reader r(data);
   if (const PacketError e =
-          read_header(data, size, PacketKind::force, kForcePacketBytes, &p.header, r);
+          read_header(data, size, PacketKind::force, kForcePacketBytes, key, &p.header, r);
       e != PacketError::none) {
     return e;
   }

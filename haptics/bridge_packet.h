@@ -17,11 +17,15 @@
 //                       round_trip_ns (the sender's last measured round trip)   88 bytes
 //   force (kind 2)      header, u32 echo_sequence, u64 echo_sent_ns, u64 tick,
 //                       f64[3] force_n, u32 status (ForceStatus bits)          68 bytes
+//   tag (keyed only)    HMAC-SHA256 of all the bytes before it (haptics/bridge_key.h),
+//                       32 bytes: a keyed position packet is 120 bytes, a force packet 100
 
 #include <Eigen/Core>
 #include <array>
 #include <cstddef>
 #include <cstdint>
+
+#include "haptics/bridge_key.h"
 
 namespace hapvox::haptics {
 
@@ -89,20 +93,36 @@ enum class PacketError {
   wrong_kind,       // a kind the receiver does not take (a force packet sent to hapvox)
   not_finite,       // a NaN or infinite position or orientation
   bad_orientation,  // an orientation flagged valid whose norm is not 1 (to 1e-6)
+  bad_tag,          // keyed: the tag is missing (an unkeyed packet's length) or wrong
 };
-inline constexpr int kPacketErrorCount = 8;
+inline constexpr int kPacketErrorCount = 9;
 
 /// "too short", "oversized", ... (for counts in sessions and messages).
 const char* packet_error_name(PacketError error);
 
-/// Writes the packet's 84 (68) bytes to `out` (at least that large). Returns the size.
-std::size_t encode_position(const PositionPacket& packet, std::uint8_t* out);
-std::size_t encode_force(const ForcePacket& packet, std::uint8_t* out);
+/// The length of a position (force) packet, with `key` (not null) its tag's too.
+inline std::size_t position_packet_bytes(const BridgeKey* key) {
+  return kPositionPacketBytes + (key != nullptr ? kBridgeTagBytes : 0);
+}
+inline std::size_t force_packet_bytes(const BridgeKey* key) {
+  return kForcePacketBytes + (key != nullptr ? kBridgeTagBytes : 0);
+}
+
+/// Writes the packet's 88 (68) bytes to `out` (at least position_packet_bytes(key) large),
+/// followed by their tag when `key` is not null. Returns the size.
+std::size_t encode_position(const PositionPacket& packet, std::uint8_t* out,
+                            const BridgeKey* key = nullptr);
+std::size_t encode_force(const ForcePacket& packet, std::uint8_t* out,
+                         const BridgeKey* key = nullptr);
 
 /// Parses `size` bytes as a position (force) packet into `out`. On any error `out` is left
 /// as it was. `size` may be the datagram's real length beyond the buffer (MSG_TRUNC):
-/// only the first min(size, kind's length) bytes are read.
-PacketError parse_position(const std::uint8_t* data, std::size_t size, PositionPacket* out);
-PacketError parse_force(const std::uint8_t* data, std::size_t size, ForcePacket* out);
+/// only the first min(size, kind's length) bytes are read. With `key` the packet must end in
+/// its tag (bad_tag when it is wrong, or when the datagram has an unkeyed packet's length);
+/// nothing after the header is believed before the tag is checked.
+PacketError parse_position(const std::uint8_t* data, std::size_t size, PositionPacket* out,
+                           const BridgeKey* key = nullptr);
+PacketError parse_force(const std::uint8_t* data, std::size_t size, ForcePacket* out,
+                        const BridgeKey* key = nullptr);
 
 }  // namespace hapvox::haptics

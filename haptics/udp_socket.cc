@@ -64,6 +64,52 @@ SocketAddress resolve_udp_address(const UdpAddress& address, const std::string& 
   return resolved;
 }
 
+namespace {
+
+// The IPv4 address and port of `a`, when it is IPv4 or IPv4-mapped IPv6.
+bool as_ipv4(const SocketAddress& a, in_addr* address, in_port_t* port) noexcept {
+  if (a.storage.ss_family == AF_INET) {
+    const auto* v4 = reinterpret_cast<const sockaddr_in*>(&a.storage);
+    *address = v4->sin_addr;
+    *port = v4->sin_port;
+    return true;
+  }
+  if (a.storage.ss_family == AF_INET6) {
+    const auto* v6 = reinterpret_cast<const sockaddr_in6*>(&a.storage);
+    if (!IN6_IS_ADDR_V4MAPPED(&v6->sin6_addr)) return false;
+    std::memcpy(&address->s_addr, v6->sin6_addr.s6_addr + 12, 4);
+    *port = v6->sin6_port;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool same_endpoint(const SocketAddress& a, const SocketAddress& b) noexcept {
+  in_addr a4{}, b4{};
+  in_port_t a_port = 0, b_port = 0;
+  const bool a_is_v4 = as_ipv4(a, &a4, &a_port), b_is_v4 = as_ipv4(b, &b4, &b_port);
+  if (a_is_v4 || b_is_v4) {
+    return a_is_v4 && b_is_v4 && a4.s_addr == b4.s_addr && a_port == b_port;
+  }
+  if (a.storage.ss_family != AF_INET6 || b.storage.ss_family != AF_INET6) return false;
+  const auto* a6 = reinterpret_cast<const sockaddr_in6*>(&a.storage);
+  const auto* b6 = reinterpret_cast<const sockaddr_in6*>(&b.storage);
+  return std::memcmp(&a6->sin6_addr, &b6->sin6_addr, sizeof a6->sin6_addr) == 0 &&
+         a6->sin6_port == b6->sin6_port && a6->sin6_scope_id == b6->sin6_scope_id;
+}
+
+std::string endpoint_text(const SocketAddress& address) {
+  char host[NI_MAXHOST], port[NI_MAXSERV];
+  if (getnameinfo(reinterpret_cast<const sockaddr*>(&address.storage), address.length, host,
+                  sizeof host, port, sizeof port, NI_NUMERICHOST | NI_NUMERICSERV) != 0) {
+    return "?";
+  }
+  if (address.storage.ss_family == AF_INET6) return "[" + std::string(host) + "]:" + port;
+  return std::string(host) + ":" + port;
+}
+
 UdpSocket UdpSocket::bound(const UdpAddress& local, const std::string& source) {
   const SocketAddress at = resolve_udp_address(local, source);
   const std::string where = local.host + ":" + std::to_string(local.port);

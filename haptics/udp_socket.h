@@ -31,6 +31,14 @@ struct SocketAddress {
 /// Resolves `address` (numeric or by name). Throws InputError(source, ...) when it cannot.
 SocketAddress resolve_udp_address(const UdpAddress& address, const std::string& source);
 
+/// True when `a` and `b` are the same host and port: an IPv4 address and its IPv4-mapped
+/// IPv6 form (::ffff:a.b.c.d, what a dual-stack socket reports) are the same. Never
+/// allocates or throws (the force thread asks it of every datagram).
+bool same_endpoint(const SocketAddress& a, const SocketAddress& b) noexcept;
+
+/// "127.0.0.1:47002" or "[::1]:47002" (for reports; "?" when it cannot say).
+std::string endpoint_text(const SocketAddress& address);
+
 class UdpSocket {
  public:
   /// A socket bound to `local` (port 0: a free port the system picks). Throws

@@ -95,14 +95,18 @@ for f in "$root"/data/*.toml; do
   esac
 done
 
-# Device bridge packets (docs/formats.md): 0 a position packet, 1 a force packet.
+# Device bridge packets (docs/formats.md): 0 a position packet, 1 a force packet; 2 and 3 the
+# same keyed, their HMAC-SHA256 tag under bridge_packet_fuzz.cc's key appended.
 python3 - "$seeds/bridge_fuzz" <<'PY'
-import struct, sys
+import hashlib, hmac, struct, sys
 head = lambda kind, seq: b"HVXB" + struct.pack("<HHIQ", 1, kind, seq, 123456789)
 position = head(1, 7) + struct.pack("<3d4dIII", 10.0, -20.0, 30.5, 1.0, 0.0, 0.0, 0.0, 3, 1, 150000)
 force = head(2, 8) + struct.pack("<IQQ3dI", 7, 123456789, 1000, 0.5, 0.0, -1.0, 1)
+tag = lambda packet: hmac.new(b"hapvox bridge fuzz key", packet, hashlib.sha256).digest()
 open(sys.argv[1] + "/position", "wb").write(b"\0" + position)
 open(sys.argv[1] + "/force", "wb").write(b"\1" + force)
+open(sys.argv[1] + "/position_keyed", "wb").write(b"\2" + position + tag(position))
+open(sys.argv[1] + "/force_keyed", "wb").write(b"\3" + force + tag(force))
 PY
 
 # Sculpting window scripts (haptics/pointer_script.h): the bundled one.

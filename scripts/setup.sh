@@ -9,6 +9,7 @@ packages=(
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
   libhdf5-dev libeigen3-dev libcli11-dev zlib1g-dev libtomlplusplus-dev
   libnifti2-dev libgdcm-dev
+  libssl-dev  # libcrypto's SHA-256: the device bridge's HMAC tags (--device-key)
   libgtest-dev libgmock-dev libbenchmark-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libopengl-dev libgl-dev libpng-dev
   libglfw3-dev libimgui-dev  # the sculpting window and its overlay

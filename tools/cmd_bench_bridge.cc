@@ -81,8 +81,10 @@ class BridgeServer {
   std::thread thread_;
 };
 
-void round_trips(benchmark::State& state, std::uint16_t port, ModeResult& result) {
-  haptics::UdpSocket socket = haptics::UdpSocket::bound({"127.0.0.1", 0}, "bench client");
+// One client socket per server, across repetitions: the bridge takes packets from the one
+// sender it bound first (a new socket's would be dropped as another sender's).
+void round_trips(benchmark::State& state, haptics::UdpSocket& socket, std::uint16_t port,
+                 ModeResult& result) {
   const haptics::SocketAddress to = haptics::resolve_udp_address({"127.0.0.1", port}, "bench");
   static std::uint32_t sequence = 0;  // fresh across repetitions: hapvox's window goes on
   std::uint8_t out[haptics::kPositionPacketBytes];
@@ -132,10 +134,13 @@ void run_bench_bridge(const BridgeBenchFlags& f) {
     BridgeServer clocked_server(false);
     const std::uint16_t paced_port = paced_server.port();
     const std::uint16_t clocked_port = clocked_server.port();
+    haptics::UdpSocket paced_client = haptics::UdpSocket::bound({"127.0.0.1", 0}, "bench");
+    haptics::UdpSocket clocked_client = haptics::UdpSocket::bound({"127.0.0.1", 0}, "bench");
     std::map<std::string, double> median_ns = measure_manual_time(
-        {{"bridge/device_paced", [&](benchmark::State& s) { round_trips(s, paced_port, paced); }},
+        {{"bridge/device_paced",
+          [&](benchmark::State& s) { round_trips(s, paced_client, paced_port, paced); }},
          {"bridge/loop_clocked_baseline",
-          [&](benchmark::State& s) { round_trips(s, clocked_port, clocked); }}},
+          [&](benchmark::State& s) { round_trips(s, clocked_client, clocked_port, clocked); }}},
         f.round_trips / f.repetitions);
     paced.median_ns = median_ns["bridge/device_paced"];
     clocked.median_ns = median_ns["bridge/loop_clocked_baseline"];

@@ -2,7 +2,8 @@
 // (haptics/bridge_client.h). It plays a trace as a device's servo loop would, one position
 // packet per tick, takes the force answers and reports their round trip; --forces-out keeps
 // every answer. With --drop/--reorder/--duplicate it impairs its own stream (for tests of
-// the bridge's counting).
+// the bridge's counting); with --device-key FILE it tags its packets and checks the answers'
+// tags with hapvox's shared key.
 
 #include <cmath>
 #include <cstdio>
@@ -21,6 +22,7 @@ struct DeviceSimFlags {
   std::string trace_path;
   std::string to;
   std::string forces_out;
+  std::string device_key;
   TraceFlags trace;
   haptics::BridgeClientOptions options;
   bool no_end = false;
@@ -56,6 +58,8 @@ void run_device_sim(const DeviceSimFlags& f) {
     throw InputError("--pause-s", "must be zero or positive");
   }
   const haptics::UdpAddress to = haptics::parse_udp_address(f.to);
+  haptics::BridgeClientOptions options = f.options;
+  if (!f.device_key.empty()) options.key = haptics::BridgeKey::from_file(f.device_key);
   if (!f.forces_out.empty()) {
     check_output_path(f.forces_out, "--forces-out");
     check_outputs_spare_inputs({{f.forces_out, "--forces-out", ""}}, {{f.trace_path, "trace"}});
@@ -69,7 +73,6 @@ void run_device_sim(const DeviceSimFlags& f) {
   haptics::UdpAddress local;
   local.host = address.storage.ss_family == AF_INET6 ? "::" : "0.0.0.0";
   haptics::UdpSocket socket = haptics::UdpSocket::bound(local, "device-sim");
-  haptics::BridgeClientOptions options = f.options;
   options.send_end = !f.no_end;
   options.buttons = f.released ? 0u : haptics::kButtonDeadMan;
   const haptics::BridgeClientResult result =
@@ -79,12 +82,16 @@ void run_device_sim(const DeviceSimFlags& f) {
               f.to.c_str(), ticks.position_mm.size(), ticks.rate_hz, result.wall_s);
   std::printf(
       "  packets          %llu sent (%llu dropped, %llu reordered, %llu duplicated on "
-      "purpose); %llu answered, %llu force packets back\n",
+      "purpose); %llu answered, %llu force packets back%s\n",
       static_cast<unsigned long long>(result.sent), static_cast<unsigned long long>(result.dropped),
       static_cast<unsigned long long>(result.reordered),
       static_cast<unsigned long long>(result.duplicated),
       static_cast<unsigned long long>(result.answered),
-      static_cast<unsigned long long>(result.force_packets));
+      static_cast<unsigned long long>(result.force_packets), options.key ? ", keyed" : "");
+  if (result.unauthenticated > 0) {
+    std::printf("  refused          %llu answers with a wrong or missing tag\n",
+                static_cast<unsigned long long>(result.unauthenticated));
+  }
   std::printf("  round trip       p50 %.1f us, p99 %.1f us, max %.1f us (%llu)\n",
               1e-3 * static_cast<double>(result.round_trip.percentile_ns(50.0)),
               1e-3 * static_cast<double>(result.round_trip.percentile_ns(99.0)),
@@ -107,6 +114,9 @@ void add_device_sim_command(CLI::App& app) {
   cmd->add_option("--to", flags->to, "udp:HOST:PORT where hapvox listens (--device)")->required();
   cmd->add_option("--forces-out", flags->forces_out,
                   "CSV of every answer: sequence, force, status, tick, round trip");
+  cmd->add_option("--device-key", flags->device_key,
+                  "A file of the shared key's bytes (hapvox's --device-key): packets carry an "
+                  "HMAC-SHA256 tag, answers without the right one are refused");
   flags->trace.add_to(*cmd);
   cmd->add_option("--drop", flags->options.drop_fraction, "Fraction of packets not sent")
       ->capture_default_str();

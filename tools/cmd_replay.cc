@@ -53,6 +53,12 @@ engine::ToolForceOptions voxel_force_options(const ReplayFlags& f) {
 ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   const bool live = !f.device.empty() || f.front_end != nullptr;
   if (!f.device.empty()) check_bridge_flags(f);
+  if (f.device.empty() && !f.device_peer.empty()) {
+    throw InputError("--device-peer", "needs --device (the bridge's one sender)");
+  }
+  if (f.device.empty() && !f.device_key.empty()) {
+    throw InputError("--device-key", "needs --device (the bridge's shared key)");
+  }
   if (!f.trace_out.empty() && !live) {
     throw InputError("--trace-out", "needs --device (a trace replay has its trace already)");
   }
@@ -313,6 +319,13 @@ void add_live_flags(CLI::App* cmd, ReplayFlags* flags, bool with_trace_out) {
                     "--device: write the positions the session's ticks used as a CSV trace "
                     "(replaying it in lockstep steps the model through them again)");
   }
+  cmd->add_option("--device-peer", flags->device_peer,
+                  "--device: HOST:PORT, the device program's address and port: only its "
+                  "packets are taken (default: the first valid sender's, for the session)");
+  cmd->add_option("--device-key", flags->device_key,
+                  "--device: a file of the shared key's bytes: every packet both ways carries "
+                  "an HMAC-SHA256 tag, and one whose tag is wrong or missing is refused "
+                  "(hapvox device-sim --device-key)");
   cmd->add_option("--silence-timeout-s", flags->silence_timeout_s,
                   "--device: no position for this long and the force ramps out")
       ->capture_default_str();

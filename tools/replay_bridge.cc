@@ -1,10 +1,13 @@
 // `hapvox replay --device udp:HOST:PORT`: the live device behind the bridge
-// (haptics/bridge_device.h) in place of a trace, its flags, counters and report.
+// (haptics/bridge_device.h) in place of a trace, its flags (--device-peer, --device-key:
+// who may drive the tool), counters and report.
 
 #include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
+#include <string>
 #include <system_error>
 
 #include "engine/errors.h"
@@ -17,7 +20,8 @@ std::atomic<bool> g_stop_requested{false};
 
 extern "C" void request_stop(int) { g_stop_requested.store(true); }
 
-// Packets refused for any reason (PacketError 0 is none).
+// Packets refused as malformed (PacketError 0 is none; bad_tag is counted apart, as
+// unauthenticated).
 std::uint64_t malformed_total(const haptics::BridgeCounters& c) {
   std::uint64_t malformed = 0;
   for (int e = 1; e < haptics::kPacketErrorCount; ++e) malformed += c.malformed[e];
@@ -49,7 +53,22 @@ void check_bridge_flags(const ReplayFlags& f) {
     throw InputError("--rate-hz", "a live device's loop runs at 100 to 10000 Hz");
   }
   haptics::parse_udp_address(f.device);  // its mistakes before anything is read or made
+  if (!f.device_peer.empty()) resolve_device_peer(f.device_peer);
+  if (!f.device_key.empty()) haptics::BridgeKey::from_file(f.device_key);  // read, dropped
   if (!f.trace_out.empty()) check_output_path(f.trace_out, "--trace-out");
+}
+
+haptics::SocketAddress resolve_device_peer(const std::string& spec) {
+  haptics::UdpAddress peer;
+  try {
+    peer = haptics::parse_udp_address(spec.rfind("udp:", 0) == 0 ? spec : "udp:" + spec);
+  } catch (const InputError& e) {
+    throw InputError("--device-peer", "'" + printable(spec) + "': " + e.problem());
+  }
+  if (peer.port == 0) {
+    throw InputError("--device-peer", "port 0: name the port the device sends from");
+  }
+  return haptics::resolve_udp_address(peer, "--device-peer");
 }
 
 void write_recorded_trace(const std::string& session_path, const std::string& trace_path) {
@@ -88,6 +107,8 @@ std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
   options.silence_timeout_s = f.silence_timeout_s;
   options.end_after_silence_s = f.end_after_silence_s;
   options.stop = &g_stop_requested;
+  if (!f.device_peer.empty()) options.peer = resolve_device_peer(f.device_peer);
+  if (!f.device_key.empty()) options.key = haptics::BridgeKey::from_file(f.device_key);
   haptics::UdpSocket socket =
       haptics::UdpSocket::bound(haptics::parse_udp_address(f.device), "--device");
   end_session_on_signals();
@@ -112,7 +133,14 @@ void write_bridge_attributes(haptics::SessionWriter& session, const haptics::Bri
   count("late", c.late);
   count("duplicates", c.duplicates);
   count("lost", c.lost);
+  count("out_of_window", c.out_of_window);
+  count("foreign", c.foreign);
+  count("unauthenticated", c.unauthenticated);
+  count("keyed", device.keyed() ? 1 : 0);
+  const std::optional<haptics::SocketAddress> peer = device.peer();
+  session.set_attribute("bridge_peer", peer ? haptics::endpoint_text(*peer) : std::string());
   for (int e = 1; e < haptics::kPacketErrorCount; ++e) {
+    if (e == static_cast<int>(haptics::PacketError::bad_tag)) continue;  // unauthenticated
     std::string name = haptics::packet_error_name(static_cast<haptics::PacketError>(e));
     for (char& ch : name) {
       if (ch == ' ') ch = '_';
@@ -151,6 +179,13 @@ void print_bridge_lines(const haptics::BridgeDevice& device) {
       static_cast<unsigned long long>(c.held_ticks),
       static_cast<unsigned long long>(c.silent_ticks), static_cast<unsigned long long>(c.silences),
       c.ended_by_sender ? "; ended by the sender" : "");
+  const std::optional<haptics::SocketAddress> peer = device.peer();
+  std::printf(
+      "  bridge refused   %llu from other senders, %llu out of the sequence window, %llu "
+      "unauthenticated; device %s%s\n",
+      static_cast<unsigned long long>(c.foreign), static_cast<unsigned long long>(c.out_of_window),
+      static_cast<unsigned long long>(c.unauthenticated),
+      peer ? haptics::endpoint_text(*peer).c_str() : "none", device.keyed() ? ", keyed" : "");
   print_stats_line("round trip", haptics::duration_stats(c.round_trip));
   print_stats_line("answer", haptics::duration_stats(c.answer));
 }

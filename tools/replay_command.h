@@ -43,7 +43,9 @@ struct ReplayFlags {
   std::string trace_path;
   std::string device;  // --device udp:HOST:PORT: a live device through the bridge
   const LiveFrontEnd* front_end = nullptr;  // sculpt: a window's device instead of either
-  std::string trace_out;  // --trace-out T.csv: the positions a live session's ticks used
+  std::string trace_out;    // --trace-out T.csv: the positions a live session's ticks used
+  std::string device_peer;  // --device-peer HOST:PORT: the one sender --device takes
+  std::string device_key;   // --device-key FILE: the bridge's shared key (HMAC tags)
   double silence_timeout_s = 0.01;
   double end_after_silence_s = 5.0;
   std::string volume;
@@ -131,8 +133,10 @@ haptics::LockstepRender fem_lockstep_frames(FrameRecorder& recorder, const hapti
 /// (of `tool_radius_mm`) 2 mm clear of it (world mm).
 Eigen::Vector3d above_volume_mm(const engine::DensityField& field, double tool_radius_mm);
 
-/// --device's flags (tools/replay_bridge.cc); InputError naming the flag.
+/// --device's flags (tools/replay_bridge.cc); InputError naming the flag (or the key file).
 void check_bridge_flags(const ReplayFlags& f);
+/// --device-peer's HOST:PORT (or udp:HOST:PORT), resolved. InputError naming the flag.
+haptics::SocketAddress resolve_device_peer(const std::string& spec);
 /// The bridge device listening on --device; Ctrl-C and SIGTERM end its session cleanly.
 std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
     const ReplayFlags& f, const haptics::DeviceTransform& transform);

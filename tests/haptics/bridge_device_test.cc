@@ -9,94 +9,19 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <string>
-#include <thread>
 #include <vector>
 
-#include "alloc_count.h"
-#include "engine/volume_io.h"
-#include "haptics/bridge_client.h"
-#include "haptics/realtime.h"
-#include "haptics/voxel_model.h"
+#include "bridge_run.h"
 
 namespace hapvox::haptics {
 namespace {
 
-// An 8 mm tool pressing 2 mm into the face of a 48^3 block (z = 23.5 mm) and holding.
-ResampledTrace press_ticks(double hold_s) {
-  TraceMakeOptions make;
-  make.shape = TraceShape::kPressRelease;
-  make.start_mm = Vec3d(24.0, 24.0, 29.0);
-  make.travel_mm = 3.5;
-  make.speed_mm_s = 10.0;
-  make.hold_s = hold_s;
-  return resample(make_trace(make));
-}
-
-engine::ToolForceOptions elastic_tool() {
-  engine::ToolForceOptions options;
-  options.tool.diameter_mm = 8.0;
-  return options;
-}
-
-std::string temp_path(const std::string& name) {
-  return (std::filesystem::path(::testing::TempDir()) / name).string();
-}
-
-struct BridgeRun {
-  std::uint64_t force_thread_allocations = ~0ull;
-  BridgeClientResult client;
-  BridgeCounters bridge;
-  ReplaySummary summary;
-  TimingSummary timing;
-};
-
-// hapvox listens on a free loopback port; the client plays `ticks` to it.
-BridgeRun run_bridge(const ResampledTrace& ticks, const BridgeClientOptions& client_options,
-                     const std::string& session_path) {
-  const engine::DensityField field = engine::generate_volume("block:dims=48");
-  const engine::ToolForceModel model(field, elastic_tool());
-  BridgeOptions options;
-  options.end_after_silence_s = 5.0;
-  BridgeDevice device(UdpSocket::bound({"127.0.0.1", 0}, "test"), DeviceTransform{}, options);
-  const SocketAddress to = resolve_udp_address({"127.0.0.1", device.local_port()}, "test");
-  BridgeRun run;
-  std::thread client([&] {
-    UdpSocket socket = UdpSocket::bound({"127.0.0.1", 0}, "client");
-    run.client = play_through_bridge(ticks, socket, to, client_options);
-  });
-  RealtimeOptions realtime;
-  realtime.scheduler.lock_memory = false;
-  std::uint64_t at_start = 0;
-  realtime.hooks.loop_started = [&] { at_start = testing::allocations_on_this_thread; };
-  realtime.hooks.loop_finished = [&] {
-    run.force_thread_allocations = testing::allocations_on_this_thread - at_start;
-  };
-  SessionWriter session(session_path);
-  run.summary = replay_realtime(model, device, DeviceLimits{}, &session, {}, nullptr, nullptr,
-                                &run.timing, realtime);
-  session.close();
-  client.join();
-  run.bridge = device.counters();
-  return run;
-}
-
-std::vector<Vec3d> lockstep_forces(const ResampledTrace& ticks) {
-  const engine::DensityField field = engine::generate_volume("block:dims=48");
-  const engine::ToolForceModel model(field, elastic_tool());
-  TraceDevice device(ticks, DeviceTransform{});
-  const std::string path = temp_path("bridge_lockstep.h5");
-  SessionWriter session(path);
-  replay_lockstep(model, device, DeviceLimits{}, &session);
-  session.close();
-  const std::vector<double> flat = read_session_column(path, "/force_n");
-  std::vector<Vec3d> forces(flat.size() / 3);
-  for (std::size_t k = 0; k < forces.size(); ++k) {
-    forces[k] = Vec3d(flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]);
-  }
-  return forces;
-}
+using bridge_testing::BridgeRun;
+using bridge_testing::lockstep_forces;
+using bridge_testing::press_ticks;
+using bridge_testing::run_bridge;
+using bridge_testing::temp_path;
 
 TEST(BridgeDevice, ForcesThroughTheBridgeAreTheLockstepReplays) {
   const ResampledTrace ticks = press_ticks(0.3);

@@ -1,7 +1,8 @@
 // Fuzz target for the device bridge's packet parser (haptics/bridge_packet.h): any bytes are
 // a packet or one PacketError; nothing is read past the datagram (ASan), nothing crashes,
 // and an accepted packet encodes back to the same bytes. The first byte picks the parser
-// (even: position, odd: force).
+// (bit 0 clear: position, set: force) and whether it checks a key's tags (bit 1: the
+// fixed key below; an accepted keyed packet encodes back to its bytes, tag included).
 //
 // Built as a libFuzzer binary (bridge_fuzz) where the compiler has -fsanitize=fuzzer (clang).
 // With HAPVOX_FUZZ_REPLAY (in haptics_tests, any compiler) a test feeds it seeded random
@@ -20,13 +21,19 @@ namespace {
 
 using namespace hapvox::haptics;  // NOLINT(build/namespaces)
 
+const BridgeKey& fuzz_key() {
+  static const BridgeKey key("hapvox bridge fuzz key");
+  return key;
+}
+
 // An accepted packet is the bytes it was parsed from (the orientation of a position packet
 // without the flag is carried as is: compared only when it is a number).
 template <typename Packet>
 void check_round_trip(const std::uint8_t* data, std::size_t size, const Packet& packet,
-                      std::size_t (*encode)(const Packet&, std::uint8_t*), bool compare) {
+                      std::size_t (*encode)(const Packet&, std::uint8_t*, const BridgeKey*),
+                      const BridgeKey* key, bool compare) {
   std::vector<std::uint8_t> again(kBridgeMaxDatagramBytes);
-  const std::size_t n = encode(packet, again.data());
+  const std::size_t n = encode(packet, again.data(), key);
   if (n != size) std::abort();
   if (compare && std::memcmp(again.data(), data, size) != 0) std::abort();
 }
@@ -36,23 +43,24 @@ int fuzz_one_input(const std::uint8_t* data, std::size_t size) {
   // A copy of exactly the datagram's bytes: ASan sees any read past its end.
   const std::vector<std::uint8_t> datagram(data + 1, data + size);
   const std::uint8_t* bytes = datagram.data();
+  const BridgeKey* key = (data[0] & 2) != 0 ? &fuzz_key() : nullptr;
   if ((data[0] & 1) == 0) {
     PositionPacket p;
-    const PacketError e = parse_position(bytes, datagram.size(), &p);
+    const PacketError e = parse_position(bytes, datagram.size(), &p, key);
     if (static_cast<int>(e) < 0 || static_cast<int>(e) >= kPacketErrorCount) std::abort();
     if (e == PacketError::none) {
       if (!p.position_mm.allFinite()) std::abort();
       bool numbers = true;
       for (double q : p.orientation_wxyz) numbers = numbers && !std::isnan(q);
-      check_round_trip(bytes, datagram.size(), p, encode_position, numbers);
+      check_round_trip(bytes, datagram.size(), p, encode_position, key, numbers);
     }
   } else {
     ForcePacket f;
-    const PacketError e = parse_force(bytes, datagram.size(), &f);
+    const PacketError e = parse_force(bytes, datagram.size(), &f, key);
     if (static_cast<int>(e) < 0 || static_cast<int>(e) >= kPacketErrorCount) std::abort();
     if (e == PacketError::none) {
       if (!f.force_n.allFinite()) std::abort();
-      check_round_trip(bytes, datagram.size(), f, encode_force, true);
+      check_round_trip(bytes, datagram.size(), f, encode_force, key, true);
     }
   }
   return 0;
@@ -86,28 +94,50 @@ TEST(BridgeFuzz, MutationsOfPacketsParseOrAreCountedErrors) {
   p.flags = kPositionHasOrientation;
   ForcePacket f;
   f.force_n = Vec3d(0.5, 0.0, -1.0);
-  std::string position(kBridgeMaxDatagramBytes, '\0'), force(kBridgeMaxDatagramBytes, '\0');
-  position.resize(encode_position(p, reinterpret_cast<std::uint8_t*>(position.data())));
-  force.resize(encode_force(f, reinterpret_cast<std::uint8_t*>(force.data())));
+  // Each packet unkeyed and keyed (its tag appended), as the first byte picks them.
+  std::string seeds[4];
+  for (int s = 0; s < 4; ++s) {
+    const BridgeKey* key = s >= 2 ? &fuzz_key() : nullptr;
+    std::string& seed = seeds[s];
+    seed.assign(kBridgeMaxDatagramBytes, '\0');
+    auto* out = reinterpret_cast<std::uint8_t*>(seed.data());
+    seed.resize(s % 2 == 1 ? encode_force(f, out, key) : encode_position(p, out, key));
+  }
   std::mt19937_64 rng(20261204);
-  int accepted = 0, refused = 0;
-  for (int i = 0; i < 20000; ++i) {
-    const bool is_force = i % 2 == 1;
-    const std::string input = std::string(1, is_force ? '\1' : '\0') +
-                              hapvox::testing::mutate(is_force ? force : position, rng);
+  int accepted = 0, refused = 0, keyed_accepted = 0, bad_tags = 0;
+  for (int i = 0; i < 40000; ++i) {
+    const int s = i % 4;
+    const bool is_force = s % 2 == 1;
+    const BridgeKey* key = s >= 2 ? &fuzz_key() : nullptr;
+    // One keyed input in twenty is the seed itself: the right tag is taken.
+    const std::string body =
+        key != nullptr && i % 40 < 4 ? seeds[s] : hapvox::testing::mutate(seeds[s], rng);
+    const std::string input = std::string(1, static_cast<char>(s)) + body;
     const auto* bytes = reinterpret_cast<const std::uint8_t*>(input.data());
     PositionPacket pp;
     ForcePacket ff;
-    const PacketError e = is_force ? parse_force(bytes + 1, input.size() - 1, &ff)
-                                   : parse_position(bytes + 1, input.size() - 1, &pp);
-    (e == PacketError::none ? accepted : refused)++;
+    const PacketError e = is_force ? parse_force(bytes + 1, input.size() - 1, &ff, key)
+                                   : parse_position(bytes + 1, input.size() - 1, &pp, key);
+    if (key == nullptr) {
+      (e == PacketError::none ? accepted : refused)++;
+    } else {
+      keyed_accepted += e == PacketError::none ? 1 : 0;
+      bad_tags += e == PacketError::bad_tag ? 1 : 0;
+      // A changed byte past the header is never taken with its old tag.
+      if (e == PacketError::none) {
+        EXPECT_EQ(body, seeds[s]) << i;
+      }
+    }
     fuzz_one_input(bytes, input.size());
   }
   // Both outcomes occur: flips inside the numbers are accepted, length and header changes
-  // refused.
+  // refused; keyed, only the seeds themselves are taken, and flips are refused for their tag.
   EXPECT_GT(accepted, 1000);
   EXPECT_GT(refused, 1000);
-  std::printf("bridge fuzz corpus: %d accepted, %d refused\n", accepted, refused);
+  EXPECT_GE(keyed_accepted, 2000);
+  EXPECT_GT(bad_tags, 500);
+  std::printf("bridge fuzz corpus: %d accepted, %d refused; keyed %d accepted, %d bad tags\n",
+              accepted, refused, keyed_accepted, bad_tags);
 }
 
 }  // namespace

@@ -61,6 +61,50 @@ TEST(SequenceWindow, OlderThanTheWindowIsLateAndStaysLost) {
   EXPECT_EQ(w.duplicates(), 1u);
 }
 
+// The defect of issue 27: one packet numbered 2^31 - 10 ahead was taken as fresh, so the
+// device's own next packets (now "older") all counted as late and the jump as 2^31 losses.
+// Out of the window it is refused, and the stream goes on as if it had never come.
+TEST(SequenceWindow, AForgedJumpIsRefusedAndTheStreamGoesOn) {
+  SequenceWindow w;
+  for (std::uint32_t s = 0; s < 100; ++s) ASSERT_EQ(w.arrive(s), Arrival::fresh);
+  EXPECT_NE(w.arrive(99u + (1u << 31) - 10u), Arrival::fresh);
+  EXPECT_NE(w.arrive(99u + (1u << 30)), Arrival::fresh);
+  EXPECT_NE(w.arrive(99u + kSequenceMaxJump + 1u), Arrival::fresh);
+  EXPECT_EQ(w.newest(), 99u);
+  for (std::uint32_t s = 100; s < 700; ++s) ASSERT_EQ(w.arrive(s), Arrival::fresh) << s;
+  EXPECT_EQ(w.late(), 0u);
+  EXPECT_EQ(w.lost(), 0u);
+  EXPECT_EQ(w.duplicates(), 0u);
+  EXPECT_EQ(w.out_of_window(), 3u);
+  EXPECT_EQ(w.fresh(), 700u);
+  EXPECT_EQ(w.received(), 703u);
+}
+
+// The window's edges: max_jump ahead is fresh (its gap lost), one more is not; the caller's
+// allowance widens it (a device that kept counting through a silence); further behind than
+// max_jump is refused too, not counted late.
+TEST(SequenceWindow, TheWindowsEdgesAndTheAllowance) {
+  SequenceWindow w(100);
+  EXPECT_EQ(w.max_jump(), 100u);
+  w.arrive(1000);
+  EXPECT_EQ(w.arrive(1101), Arrival::out_of_window);
+  EXPECT_EQ(w.arrive(1100), Arrival::fresh);
+  EXPECT_EQ(w.lost(), 99u);
+  EXPECT_EQ(w.arrive(1100 + 350), Arrival::out_of_window);
+  EXPECT_EQ(w.arrive(1100 + 350, 250), Arrival::fresh);  // 100 + 250 allowed
+  EXPECT_EQ(w.lost(), 99u + 349u);
+  EXPECT_EQ(w.arrive(1450 - 101), Arrival::out_of_window);  // too far behind
+  EXPECT_EQ(w.arrive(1450 - 100), Arrival::late);
+  EXPECT_EQ(w.arrive(1450 + 0xFFFFFFFFu), Arrival::late);  // 1 behind, through the wrap
+  EXPECT_EQ(w.out_of_window(), 3u);
+  EXPECT_EQ(w.late(), 2u);
+  // No allowance takes a jump past 2^30 (kSequenceJumpCeiling).
+  EXPECT_EQ(w.arrive(1450u + (1u << 31) - 10u, 0xFFFFFFFFu), Arrival::out_of_window);
+  EXPECT_EQ(w.arrive(1450u + (1u << 30) + 1u, 0xFFFFFFFFu), Arrival::out_of_window);
+  EXPECT_EQ(w.newest(), 1450u);
+  EXPECT_EQ(w.arrive(1450u + (1u << 30), 0xFFFFFFFFu), Arrival::fresh);
+}
+
 // A stream with 5 % dropped, 1 % delayed by a few packets and 0.5 % duplicated: every count
 // matches what was done to it.
 TEST(SequenceWindow, CountsWhatALossyNetworkDid) {

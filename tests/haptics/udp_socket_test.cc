@@ -129,5 +129,25 @@ TEST(UdpSocket, APortInUseIsOneLine) {
   }
 }
 
+// The bridge binds one sender: an address is the same host and port, whichever family the
+// socket reports it in.
+TEST(UdpSocket, SameEndpointIsTheSameHostAndPort) {
+  const SocketAddress a = resolve_udp_address({"127.0.0.1", 47001}, "test");
+  EXPECT_TRUE(same_endpoint(a, resolve_udp_address({"127.0.0.1", 47001}, "test")));
+  EXPECT_FALSE(same_endpoint(a, resolve_udp_address({"127.0.0.1", 47002}, "test")));
+  EXPECT_FALSE(same_endpoint(a, resolve_udp_address({"127.0.0.2", 47001}, "test")));
+  // A dual-stack socket reports an IPv4 sender as ::ffff:127.0.0.1.
+  const SocketAddress mapped = resolve_udp_address({"::ffff:127.0.0.1", 47001}, "test");
+  EXPECT_TRUE(same_endpoint(a, mapped));
+  EXPECT_TRUE(same_endpoint(mapped, a));
+  const SocketAddress v6 = resolve_udp_address({"::1", 47001}, "test");
+  EXPECT_TRUE(same_endpoint(v6, resolve_udp_address({"::1", 47001}, "test")));
+  EXPECT_FALSE(same_endpoint(v6, a));
+  EXPECT_FALSE(same_endpoint(v6, resolve_udp_address({"::1", 47002}, "test")));
+  EXPECT_FALSE(same_endpoint(a, SocketAddress{}));
+  EXPECT_EQ(endpoint_text(a), "127.0.0.1:47001");
+  EXPECT_EQ(endpoint_text(v6), "[::1]:47001");
+}
+
 }  // namespace
 }  // namespace hapvox::haptics

@@ -1,6 +1,7 @@
 // hapvox replay --device udp:HOST:PORT with hapvox device-sim, as two processes on loopback:
-// the forces the device-sim gets back are those of a direct replay of its trace; bad flags
-// are one line each.
+// the forces the device-sim gets back are those of a direct replay of its trace; with
+// --device-key only the key's device drives the tool, with --device-peer only the named
+// sender; bad flags are one line each.
 
 #include <gtest/gtest.h>
 
@@ -61,6 +62,29 @@ std::vector<Answer> read_answers(const std::string& path) {
   return answers;
 }
 
+// Compared by sequence number: each position sent at full force (past the 100-tick ramp-in,
+// no ramp under way: status bit 0 clear) was answered with the force a direct replay
+// computed for that sample, to the last bit (through the CSV's 17 digits). Returns how many
+// answers were compared.
+std::size_t expect_direct_forces(const std::string& forces_csv, const std::string& direct_h5) {
+  const std::vector<double> direct = haptics::read_session_column(direct_h5, "/force_n");
+  const std::vector<Answer> answers = read_answers(forces_csv);
+  EXPECT_EQ(answers.size(), direct.size() / 3 + 1);  // and the end packet's
+  std::size_t compared = 0;
+  for (std::size_t k = 100; k + 1 < answers.size() && 3 * k + 2 < direct.size(); ++k) {
+    if (!answers[k].answered || (answers[k].status & 1u) != 0) continue;
+    ++compared;
+    for (int a = 0; a < 3; ++a) {
+      if (answers[k].force[a] != direct[3 * k + a]) {
+        ADD_FAILURE() << "sequence " << k << ": " << answers[k].force[a] << " against "
+                      << direct[3 * k + a];
+        return compared;
+      }
+    }
+  }
+  return compared;
+}
+
 // The stylus turns 2 mrad a sample about (0.6, 0, 0.8): quaternion columns added to a trace.
 const std::string kTurn = " --orientation-cols qw,qx,qy,qz";
 void add_turning_stylus(const std::string& path) {
@@ -79,6 +103,35 @@ void add_turning_stylus(const std::string& path) {
   std::ofstream(path) << out;
 }
 
+// `hapvox ARGS` (a live session: it waits for its device) on a thread of its own, running
+// once it listens on `port`.
+class LiveSession {
+ public:
+  LiveSession(std::uint16_t port, const std::string& args)
+      : thread_([this, args] { result_ = run_hapvox(args); }) {
+    for (int i = 0; i < 1000 && !listening(port); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
+  testing::CommandResult finish() {
+    thread_.join();
+    return result_;
+  }
+
+ private:
+  testing::CommandResult result_;
+  std::thread thread_;
+};
+
+// `hapvox ARGS` refused: exit 2, `expected` its one line, and no file at `output`.
+void expect_refused(const std::string& args, const std::string& expected,
+                    const std::string& output) {
+  const testing::CommandResult r = run_hapvox(args);
+  EXPECT_EQ(r.exit_code, 2) << args;
+  EXPECT_EQ(r.err, "hapvox: error: " + expected + "\n") << args;
+  EXPECT_FALSE(std::filesystem::exists(output)) << args;
+}
+
 TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
   const std::string dir = scratch_dir();
   ASSERT_EQ(run_hapvox("trace make press-release -o " + dir +
@@ -91,38 +144,20 @@ TEST(DeviceBridgeCli, DeviceSimThroughTheBridgeGetsTheDirectReplaysForces) {
       run_hapvox("replay " + dir + "/press.csv" + tool + " -o " + dir + "/direct.h5").exit_code, 0);
   const std::uint16_t port = free_port();
   const std::string device = "udp:127.0.0.1:" + std::to_string(port);
-  testing::CommandResult live;
-  std::thread hapvox([&] {
-    live = run_hapvox("replay --device " + device + tool + " --realtime --no-mlock -o " + dir +
-                      "/live.h5 --trace-out " + dir + "/live.csv");
-  });
-  for (int i = 0; i < 500 && !listening(port); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  LiveSession hapvox(port, "replay --device " + device + tool + " --realtime --no-mlock -o " + dir +
+                               "/live.h5 --trace-out " + dir + "/live.csv");
   const testing::CommandResult sim =
       run_hapvox("device-sim " + dir + "/press.csv" + kTurn + " --to " + device + " --forces-out " +
                  dir + "/forces.csv");
-  hapvox.join();
+  const testing::CommandResult live = hapvox.finish();
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   ASSERT_EQ(live.exit_code, 0) << live.err;
   EXPECT_NE(sim.out.find("round trip       p50 "), std::string::npos) << sim.out;
   EXPECT_NE(live.out.find("; ended by the sender"), std::string::npos) << live.out;
 
-  // Compared by sequence number: a position sent at full force (past the 100-tick ramp-in,
-  // no ramp under way: status bit 0 clear) is answered with the force a direct replay
-  // computed for that sample, to the last bit (through the CSV's 17 digits).
-  const std::vector<double> direct = haptics::read_session_column(dir + "/direct.h5", "/force_n");
-  const std::vector<Answer> answers = read_answers(dir + "/forces.csv");
-  ASSERT_EQ(answers.size(), direct.size() / 3 + 1);  // and the end packet's
-  std::size_t compared = 0;
-  for (std::size_t k = 100; k + 1 < answers.size(); ++k) {
-    if (!answers[k].answered || (answers[k].status & 1u) != 0) continue;
-    ++compared;
-    for (int a = 0; a < 3; ++a) ASSERT_EQ(answers[k].force[a], direct[3 * k + a]) << k;
-  }
   // A trip ramps ~200 ticks (321 of 501 were left in a fresh-clone ASan run with builds
   // beside it): the hold keeps some hundred at least.
-  EXPECT_GE(compared, 100u);
+  EXPECT_GE(expect_direct_forces(dir + "/forces.csv", dir + "/direct.h5"), 100u);
   // The live session records what came: its rows name the packet each tick used.
   const std::vector<double> sequence =
       haptics::read_session_column(dir + "/live.h5", "/device_sequence");
@@ -188,16 +223,10 @@ TEST(DeviceBridgeCli, ADeviceProgramPressesTheProxyMeshThroughTheBridge) {
   ASSERT_EQ(direct.exit_code, 0) << direct.err;
   const std::uint16_t port = free_port();
   const std::string device = "udp:127.0.0.1:" + std::to_string(port);
-  testing::CommandResult live;
-  std::thread hapvox([&] {
-    live = run_hapvox("replay --device " + device + fem + " --realtime --no-mlock -o " + dir +
-                      "/live.h5");
-  });
-  for (int i = 0; i < 1000 && !listening(port); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  LiveSession hapvox(
+      port, "replay --device " + device + fem + " --realtime --no-mlock -o " + dir + "/live.h5");
   const testing::CommandResult sim = run_hapvox("device-sim " + dir + "/press.csv --to " + device);
-  hapvox.join();
+  const testing::CommandResult live = hapvox.finish();
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   ASSERT_EQ(live.exit_code, 0) << live.err;
   EXPECT_NE(live.out.find("replayed " + device +
@@ -231,10 +260,7 @@ TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
   ASSERT_EQ(run_hapvox("trace make press -o " + dir + "/t.csv").exit_code, 0);
   const std::string out = " -o " + dir + "/s.h5";
   auto expect_error = [&](const std::string& args, const std::string& expected) {
-    const testing::CommandResult r = run_hapvox(args);
-    EXPECT_EQ(r.exit_code, 2) << args;
-    EXPECT_EQ(r.err, "hapvox: error: " + expected + "\n") << args;
-    EXPECT_FALSE(std::filesystem::exists(dir + "/s.h5")) << args;
+    expect_refused(args, expected, dir + "/s.h5");
   };
   const std::string volume = " --volume block:dims=48";
   expect_error("replay --device udp:127.0.0.1:47001" + volume + out,
@@ -265,6 +291,131 @@ TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
                "--trace-out: needs --device (a trace replay has its trace already)");
   expect_error("device-sim " + dir + "/t.csv --to udp:127.0.0.1:47001 --drop 0.9",
                "--drop: must lie in [0, 0.5]");
+}
+
+// --device-key FILE: missing, empty or a directory is one line naming the file, for hapvox
+// and device-sim alike; --device-peer's spec and both flags without --device likewise.
+TEST(DeviceBridgeCli, KeyAndPeerMistakesAreOneLineAndMakeNoFile) {
+  const std::string dir = scratch_dir();
+  ASSERT_EQ(run_hapvox("trace make press -o " + dir + "/t.csv").exit_code, 0);
+  std::ofstream(dir + "/empty.key").close();
+  std::filesystem::create_directories(dir + "/keys");
+  const std::string out = " -o " + dir + "/s.h5";
+  auto expect_error = [&](const std::string& args, const std::string& expected) {
+    expect_refused(args, expected, dir + "/s.h5");
+  };
+  const std::string live = "replay --device udp:127.0.0.1:47001 --realtime --volume block:dims=48";
+  expect_error(live + " --device-key " + dir + "/none.key" + out,
+               dir + "/none.key: cannot open file");
+  expect_error(live + " --device-key " + dir + "/empty.key" + out,
+               dir +
+                   "/empty.key: the key file is empty (it holds the shared key's bytes, e.g. "
+                   "32 from /dev/urandom)");
+  expect_error(live + " --device-key " + dir + "/keys" + out, dir + "/keys: is a directory");
+  expect_error(live + " --device-peer 127.0.0.1" + out,
+               "--device-peer: '127.0.0.1': expected udp:HOST:PORT (e.g. udp:127.0.0.1:47001 or "
+               "udp:[::1]:47001)");
+  expect_error(live + " --device-peer udp:127.0.0.1:0" + out,
+               "--device-peer: port 0: name the port the device sends from");
+  expect_error(
+      "replay " + dir + "/t.csv --volume block:dims=48 --device-key " + dir + "/empty.key" + out,
+      "--device-key: needs --device (the bridge's shared key)");
+  expect_error("replay " + dir + "/t.csv --volume block:dims=48 --device-peer 127.0.0.1:5" + out,
+               "--device-peer: needs --device (the bridge's one sender)");
+  expect_error(
+      "device-sim " + dir + "/t.csv --to udp:127.0.0.1:47001 --device-key " + dir + "/empty.key",
+      dir +
+          "/empty.key: the key file is empty (it holds the shared key's bytes, e.g. "
+          "32 from /dev/urandom)");
+  expect_error(
+      "device-sim " + dir + "/t.csv --to udp:127.0.0.1:47001 --device-key " + dir + "/none.key",
+      dir + "/none.key: cannot open file");
+}
+
+std::map<std::string, std::string> session_attributes(const std::string& path) {
+  const haptics::SessionInfo info = haptics::read_session_info(path);
+  EXPECT_TRUE(info.complete) << path;
+  return std::map<std::string, std::string>(info.attributes.begin(), info.attributes.end());
+}
+
+// replay --device --device-key K: a device-sim with another key is refused packet by packet
+// (it hears nothing back, the tool does not move, and the session waits on); the one with K
+// then drives the tool and gets the direct replay's forces, tagged.
+TEST(DeviceBridgeCli, AKeyedSessionTakesOnlyTheKeysDevice) {
+  const std::string dir = scratch_dir();
+  ASSERT_EQ(run_hapvox("trace make press-release -o " + dir +
+                       "/press.csv --start-mm 24,24,29 --travel-mm 3.5 --hold-s 0.3")
+                .exit_code,
+            0);
+  std::string key_bytes(32, '\0');
+  for (std::size_t i = 0; i < key_bytes.size(); ++i) key_bytes[i] = static_cast<char>(37 * i + 11);
+  std::ofstream(dir + "/right.key", std::ios::binary) << key_bytes;
+  std::ofstream(dir + "/wrong.key", std::ios::binary) << "not the key";
+  const std::string tool = " --volume block:dims=48 --tool-diameter-mm 8 -q";
+  ASSERT_EQ(
+      run_hapvox("replay " + dir + "/press.csv" + tool + " -o " + dir + "/direct.h5").exit_code, 0);
+  const std::uint16_t port = free_port();
+  const std::string device = "udp:127.0.0.1:" + std::to_string(port);
+  LiveSession hapvox(port, "replay --device " + device + " --device-key " + dir + "/right.key" +
+                               tool + " --realtime --no-mlock -o " + dir + "/live.h5");
+  const testing::CommandResult wrong =
+      run_hapvox("device-sim " + dir + "/press.csv --to " + device + " --no-end --device-key " +
+                 dir + "/wrong.key");
+  const testing::CommandResult right =
+      run_hapvox("device-sim " + dir + "/press.csv --to " + device + " --device-key " + dir +
+                 "/right.key --forces-out " + dir + "/forces.csv");
+  const testing::CommandResult live = hapvox.finish();
+  ASSERT_EQ(wrong.exit_code, 0) << wrong.err;
+  ASSERT_EQ(right.exit_code, 0) << right.err;
+  ASSERT_EQ(live.exit_code, 0) << live.err;
+  EXPECT_NE(wrong.out.find(" 0 answered, 0 force packets back, keyed"), std::string::npos)
+      << wrong.out;
+  EXPECT_NE(right.out.find(", keyed\n"), std::string::npos) << right.out;
+  EXPECT_EQ(right.out.find("refused"), std::string::npos) << right.out;  // every tag right
+  EXPECT_NE(live.out.find("; ended by the sender"), std::string::npos) << live.out;
+  EXPECT_NE(live.out.find(" unauthenticated; device 127.0.0.1:"), std::string::npos) << live.out;
+
+  EXPECT_GE(expect_direct_forces(dir + "/forces.csv", dir + "/direct.h5"), 100u);
+  std::map<std::string, std::string> attributes = session_attributes(dir + "/live.h5");
+  EXPECT_EQ(attributes["bridge_keyed"], "1");
+  EXPECT_GT(std::stoll(attributes["bridge_unauthenticated"]), 500);  // the wrong key's
+  EXPECT_EQ(attributes["bridge_foreign"], "0");
+  EXPECT_EQ(attributes["bridge_late"], "0");
+  EXPECT_EQ(attributes["bridge_lost"], "0");
+  EXPECT_EQ(attributes["bridge_out_of_window"], "0");
+  EXPECT_EQ(attributes["bridge_peer"].rfind("127.0.0.1:", 0), 0u) << attributes["bridge_peer"];
+  // No tick used a wrong-key packet: the session's first position is the right device's.
+  const std::vector<double> sequence =
+      haptics::read_session_column(dir + "/live.h5", "/device_sequence");
+  ASSERT_FALSE(sequence.empty());
+  EXPECT_EQ(sequence.front(), 0.0);
+  EXPECT_GT(std::stoll(attributes["bridge_fresh"]), 500);
+}
+
+// replay --device --device-peer HOST:PORT: a device-sim sending from any other port is
+// never answered and never moves the tool; the session ends without a tick.
+TEST(DeviceBridgeCli, ADevicePeerTakesNoOtherSender) {
+  const std::string dir = scratch_dir();
+  ASSERT_EQ(run_hapvox("trace make press -o " + dir + "/t.csv").exit_code, 0);
+  const std::uint16_t peer_port = free_port();  // nobody sends from it
+  const std::uint16_t port = free_port();
+  const std::string device = "udp:127.0.0.1:" + std::to_string(port);
+  LiveSession hapvox(
+      port, "replay --device " + device + " --device-peer 127.0.0.1:" + std::to_string(peer_port) +
+                " --end-after-silence-s 3 --volume block:dims=48 -q --realtime --no-mlock "
+                "-o " +
+                dir + "/live.h5");
+  const testing::CommandResult sim = run_hapvox("device-sim " + dir + "/t.csv --to " + device);
+  const testing::CommandResult live = hapvox.finish();
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  ASSERT_EQ(live.exit_code, 0) << live.err;
+  EXPECT_NE(sim.out.find("nothing answered"), std::string::npos) << sim.out;
+  std::map<std::string, std::string> attributes = session_attributes(dir + "/live.h5");
+  EXPECT_GT(std::stoll(attributes["bridge_foreign"]), 100);
+  EXPECT_EQ(attributes["bridge_foreign"], attributes["bridge_datagrams"]);
+  EXPECT_EQ(attributes["bridge_fresh"], "0");
+  EXPECT_EQ(attributes["bridge_answers"], "0");
+  EXPECT_EQ(attributes["bridge_peer"], "127.0.0.1:" + std::to_string(peer_port));
 }
 
 }  // namespace
