@@ -11,6 +11,7 @@
 
 #include "engine/errors.h"
 #include "haptics/realtime.h"
+#include "haptics/trace_resample.h"
 #include "haptics/voxel_model.h"
 #include "tools/cli.h"
 #include "tools/render_output.h"
@@ -127,8 +128,9 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     haptics::ResampleOptions resample_options;
     resample_options.rate_hz = f.trace.rate_hz;
     resample_options.max_gap_s = f.trace.max_gap_s;
-    traced = std::make_unique<haptics::TraceDevice>(haptics::resample(trace, resample_options),
-                                                    f.transform.resolve(trace, field));
+    traced = std::make_unique<haptics::TraceDevice>(
+        haptics::resample(trace, resample_options, f.trace_path),
+        f.transform.resolve(trace, field));
     warnings = replay_warnings(f.trace_path, model, *traced);
   }
   haptics::Device& device = fronted  ? *fronted
