@@ -6,7 +6,8 @@
 namespace hapvox::engine {
 
 /// The bytes of the file at `path`. Throws InputError(path, "is a directory" / "cannot open
-/// file" / "cannot read file").
+/// file" / "cannot read file"), and InputError(path, "holds N MB, over the limit ...") past
+/// --max-input-mb (engine/input_limits.h), before reading it.
 std::string read_text_file(const std::string& path);
 
 }  // namespace hapvox::engine

@@ -6,9 +6,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <optional>
 
 #include "engine/errors.h"
+#include "engine/input_limits.h"
 #include "engine/text_file.h"
 #include "engine/toml_reporter.h"
 #include "engine/volume_io.h"
@@ -140,6 +142,29 @@ std::vector<std::vector<std::pair<std::string, std::string>>> expand(const Optio
   return out;
 }
 
+// The rows the manifest describes, counted before any is made (a 31 kB grid may describe a
+// billion): the product of the grid's axes, plus the explicit rows. In doubles, which do not
+// overflow where the product of a few lists' sizes would.
+void check_row_count(const Reporter& r, const toml::node* grid_node,
+                     std::initializer_list<std::size_t> axes, const OptionGrid& options,
+                     const toml::array* rows) {
+  double count = 0.0;
+  if (grid_node != nullptr) {
+    count = 1.0;
+    for (const std::size_t size : axes) count *= static_cast<double>(size);
+    for (const auto& [name, values] : options) count *= static_cast<double>(values.size());
+  }
+  if (rows != nullptr) count += static_cast<double>(rows->size());
+  const std::uint64_t limit = engine::input_limits().max_sweep_rows;
+  if (count > static_cast<double>(limit)) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.0f", count);
+    r.fail(grid_node != nullptr ? Reporter::line(*grid_node) : 1,
+           std::string("describes ") + text + " replays, " +
+               engine::over_limit(limit, "rows", "--max-sweep-rows"));
+  }
+}
+
 SweepRow explicit_row(const Reporter& r, const toml::table& table, const std::string& base_dir) {
   SweepRow row;
   row.line = Reporter::line(table);
@@ -224,6 +249,8 @@ SweepManifest parse_sweep_manifest(std::string_view text, const std::string& sou
     r.fail(given, traces_node != nullptr ? "a grid of traces needs volumes too"
                                          : "a grid of volumes needs traces too");
   }
+  check_row_count(r, traces_node, {traces.size(), volumes.size(), models.size(), materials.size()},
+                  grid, rows);
   if (traces_node != nullptr) {
     const int line = Reporter::line(*traces_node);
     for (const std::string& trace : traces) {

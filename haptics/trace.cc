@@ -1,6 +1,5 @@
 #include "haptics/trace.h"
 
-#include <hdf5.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,19 +16,18 @@
 #include <numbers>
 #include <sstream>
 #include <string_view>
+#include <unordered_map>
 #include <utility>
 
 #include "engine/check.h"
 #include "engine/errors.h"
-#include "haptics/hdf5_id.h"
+#include "engine/input_limits.h"
+#include "engine/io/output_file.h"
 #include "haptics/trace_h3d.h"
 #include "haptics/trace_raw.h"
 
 namespace hapvox::haptics {
-namespace {
-
-// Caps on generated sample counts, so a typo in a rate cannot exhaust memory.
-constexpr double kMaxTicks = 1e9;
+namespace detail {
 
 // Shortest text that round-trips, so messages show "0.5" rather than "0.50000000000000000".
 std::string format_double(double v) {
@@ -37,6 +35,39 @@ std::string format_double(double v) {
   const auto result = std::to_chars(buf, buf + sizeof(buf), v);
   return std::string(buf, result.ptr);
 }
+
+void check_trace_shape(const Trace& trace, const std::string& source) {
+  if (trace.time_s.size() != trace.position_mm.size()) {
+    throw InputError(source, "trace has " + std::to_string(trace.time_s.size()) + " times but " +
+                                 std::to_string(trace.position_mm.size()) + " positions");
+  }
+  if (!trace.orientation.empty() && trace.orientation.size() != trace.time_s.size()) {
+    throw InputError(source, "trace has " + std::to_string(trace.time_s.size()) + " times but " +
+                                 std::to_string(trace.orientation.size()) + " orientations");
+  }
+}
+
+void check_scales(const std::string& source, const TraceColumns& columns) {
+  if (!(columns.seconds_per_time_unit > 0.0) || !std::isfinite(columns.seconds_per_time_unit)) {
+    throw InputError(source, "time scale must be positive and finite (got " +
+                                 format_double(columns.seconds_per_time_unit) + ")");
+  }
+  if (!(columns.mm_per_position_unit > 0.0) || !std::isfinite(columns.mm_per_position_unit)) {
+    throw InputError(source, "position scale must be positive and finite (got " +
+                                 format_double(columns.mm_per_position_unit) + ")");
+  }
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::check_scales;
+using detail::check_trace_shape;
+using detail::format_double;
+
+// Caps on generated sample counts, so a typo in a rate cannot exhaust memory.
+constexpr double kMaxTicks = 1e9;
 
 std::string_view trim(std::string_view s) {
   const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
@@ -94,75 +125,23 @@ std::vector<std::string> split_csv_line(std::string_view line) {
   return fields;
 }
 
+// A header that names a column twice would leave which one is read to the order of a search.
+void check_unique_columns(const std::vector<std::string>& names, const std::string& path) {
+  std::unordered_map<std::string_view, std::size_t> first;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i].empty()) continue;
+    const auto [at, added] = first.emplace(names[i], i);
+    if (!added) {
+      throw InputError(
+          path, "column '" + printable(names[i], 40) + "' appears twice in the header (columns " +
+                    std::to_string(at->second + 1) + " and " + std::to_string(i + 1) + ")");
+    }
+  }
+}
+
 bool is_skipped_line(std::string_view line) {
   const std::string_view t = trim(line);
   return t.empty() || t.front() == '#';
-}
-
-void check_scales(const std::string& source, const TraceColumns& columns) {
-  if (!(columns.seconds_per_time_unit > 0.0) || !std::isfinite(columns.seconds_per_time_unit)) {
-    throw InputError(source, "time scale must be positive and finite (got " +
-                                 format_double(columns.seconds_per_time_unit) + ")");
-  }
-  if (!(columns.mm_per_position_unit > 0.0) || !std::isfinite(columns.mm_per_position_unit)) {
-    throw InputError(source, "position scale must be positive and finite (got " +
-                                 format_double(columns.mm_per_position_unit) + ")");
-  }
-}
-
-void check_trace_shape(const Trace& trace, const std::string& source) {
-  if (trace.time_s.size() != trace.position_mm.size()) {
-    throw InputError(source, "trace has " + std::to_string(trace.time_s.size()) + " times but " +
-                                 std::to_string(trace.position_mm.size()) + " positions");
-  }
-  if (!trace.orientation.empty() && trace.orientation.size() != trace.time_s.size()) {
-    throw InputError(source, "trace has " + std::to_string(trace.time_s.size()) + " times but " +
-                                 std::to_string(trace.orientation.size()) + " orientations");
-  }
-}
-
-// --- HDF5 ---------------------------------------------------------------------------
-
-// HDF5 prints its error stack to stderr by default; our messages say it better.
-void silence_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
-
-std::vector<double> read_h5_column(const std::string& path, hid_t file, const std::string& name) {
-  const htri_t exists = H5Lexists(file, name.c_str(), H5P_DEFAULT);
-  if (exists <= 0) throw InputError(path, "missing dataset '" + name + "'");
-  H5Id dataset(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose);
-  if (!dataset.valid()) throw InputError(path, "'" + name + "' is not a dataset");
-  H5Id type(H5Dget_type(dataset.get()), H5Tclose);
-  const H5T_class_t type_class = type.valid() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
-  if (type_class != H5T_INTEGER && type_class != H5T_FLOAT) {
-    throw InputError(path, "dataset '" + name + "' is not numeric");
-  }
-  H5Id space(H5Dget_space(dataset.get()), H5Sclose);
-  const int rank = space.valid() ? H5Sget_simple_extent_ndims(space.get()) : -1;
-  if (rank != 1) {
-    throw InputError(path, "dataset '" + name + "' is not 1-D (rank " + std::to_string(rank) + ")");
-  }
-  hsize_t length = 0;
-  H5Sget_simple_extent_dims(space.get(), &length, nullptr);
-  std::vector<double> values(static_cast<std::size_t>(length));
-  if (length > 0 &&
-      H5Dread(dataset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
-    throw InputError(path, "cannot read dataset '" + name + "' as float64");
-  }
-  return values;
-}
-
-void write_h5_column(const std::string& path, hid_t file, const char* name,
-                     const std::vector<double>& values) {
-  const hsize_t length = values.size();
-  H5Id space(H5Screate_simple(1, &length, nullptr), H5Sclose);
-  H5Id dataset(
-      H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-      H5Dclose);
-  if (!space.valid() || !dataset.valid() ||
-      (length > 0 && H5Dwrite(dataset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT,
-                              values.data()) < 0)) {
-    throw InputError(path, std::string("cannot write dataset '") + name + "'");
-  }
 }
 
 bool has_h5_extension(const std::string& path) {
@@ -259,7 +238,10 @@ Trace finish_trace(const std::string& source, const TraceColumns& columns, const
 
 std::string read_trace_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in || std::filesystem::is_directory(path)) throw InputError(path, "cannot open file");
+  std::error_code ec;
+  if (!in || std::filesystem::is_directory(path, ec)) throw InputError(path, "cannot open file");
+  const std::uintmax_t bytes = std::filesystem::file_size(path, ec);
+  if (!ec) engine::check_text_bytes(bytes, path);
   std::stringstream buffer;
   buffer << in.rdbuf();
   std::string text = buffer.str();
@@ -309,6 +291,7 @@ Trace parse_csv_trace(const std::string& text, const std::string& path,
   }
   if (!have_header) throw InputError(path, "empty file: no header row");
   const std::vector<std::string> names = split_csv_line(line);
+  check_unique_columns(names, path);
 
   const auto find_column = [&](const std::string& name) {
     const auto it = std::find(names.begin(), names.end(), name);
@@ -332,8 +315,12 @@ Trace parse_csv_trace(const std::string& text, const std::string& path,
   RawTrace raw;
   raw.kind = "column";
   std::vector<int> line_numbers;
+  const std::uint64_t max_rows = engine::input_limits().max_trace_rows;
   while (next_line()) {
     if (is_skipped_line(line)) continue;
+    if (raw.time.size() == max_rows) {
+      engine::check_trace_rows(static_cast<double>(max_rows) + 1, path, "it holds at least");
+    }
     const std::vector<std::string> fields = split_csv_line(line);
     const std::string where = "line " + std::to_string(line_number);
     if (fields.size() != names.size()) {
@@ -391,73 +378,6 @@ void write_csv_trace(const Trace& trace, const std::string& path) {
   file.commit();
 }
 
-// --- HDF5 -------------------------------------------------------------------------------
-
-Trace read_h5_trace(const std::string& path, const TraceColumns& columns) {
-  check_scales(path, columns);
-  silence_hdf5();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw InputError(path, "cannot open file");
-  if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path, "not an HDF5 file");
-  H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!file.valid()) throw InputError(path, "cannot open HDF5 file");
-
-  RawTrace raw;
-  raw.kind = "dataset";
-  raw.time = read_h5_column(path, file.get(), columns.time);
-  std::array<std::vector<double>, 3> position;
-  for (int a = 0; a < 3; ++a) {
-    position[a] = read_h5_column(path, file.get(), columns.position[a]);
-    if (position[a].size() != raw.time.size()) {
-      throw InputError(path, "dataset '" + columns.position[a] + "' has " +
-                                 std::to_string(position[a].size()) + " values but dataset '" +
-                                 columns.time + "' has " + std::to_string(raw.time.size()));
-    }
-  }
-  raw.position.resize(raw.time.size());
-  for (std::size_t i = 0; i < raw.time.size(); ++i) {
-    raw.position[i] = {position[0][i], position[1][i], position[2][i]};
-  }
-  if (columns.has_orientation()) {
-    std::array<std::vector<double>, 4> q;
-    for (int c = 0; c < 4; ++c) {
-      q[c] = read_h5_column(path, file.get(), columns.orientation[c]);
-      if (q[c].size() != raw.time.size()) {
-        throw InputError(path, "dataset '" + columns.orientation[c] + "' has " +
-                                   std::to_string(q[c].size()) + " values but dataset '" +
-                                   columns.time + "' has " + std::to_string(raw.time.size()));
-      }
-    }
-    for (std::size_t i = 0; i < raw.time.size(); ++i) {
-      raw.orientation.push_back({q[0][i], q[1][i], q[2][i], q[3][i]});
-    }
-  }
-  raw.where = [](std::size_t i) { return "index " + std::to_string(i); };
-  return finish_trace(path, columns, raw);
-}
-
-void write_h5_trace(const Trace& trace, const std::string& path) {
-  check_trace_shape(trace, path);
-  silence_hdf5();
-  engine::io::OutputFile out(path);
-  try {
-    H5Id file(create_hdf5_output(out), H5Fclose);
-    std::array<std::vector<double>, 3> position;
-    for (const Vec3d& p : trace.position_mm) {
-      for (int a = 0; a < 3; ++a) position[a].push_back(p[a]);
-    }
-    write_h5_column(path, file.get(), "t", trace.time_s);
-    write_h5_column(path, file.get(), "x", position[0]);
-    write_h5_column(path, file.get(), "y", position[1]);
-    write_h5_column(path, file.get(), "z", position[2]);
-    if (!file.close()) throw InputError(path, "cannot finish writing " + out.partial_path());
-    out.commit();
-  } catch (...) {
-    out.discard();
-    throw;
-  }
-}
-
 Trace read_trace(const std::string& path, const TraceColumns& columns) {
   if (has_h5_extension(path)) return read_h5_trace(path, columns);
   if (is_h3d_device_log(path)) return read_h3d_device_log(path);
@@ -506,86 +426,6 @@ DeviceTransform fit_trace_into_box(const Trace& trace, const Vec3d& box_min_mm,
   transform.scale = scale;
   transform.offset_mm = 0.5 * (box_min_mm + box_max_mm) - scale * 0.5 * (lo + hi);
   return transform;
-}
-
-// --- Resampling -------------------------------------------------------------------------
-
-ResampledTrace resample(const Trace& trace, const ResampleOptions& options) {
-  const std::string source = "resample";
-  if (!(options.rate_hz > 0.0) || !std::isfinite(options.rate_hz)) {
-    throw InputError(source, "rate must be positive (got " + format_double(options.rate_hz) + ")");
-  }
-  if (!(options.max_gap_s > 0.0)) {
-    throw InputError(source,
-                     "max gap must be positive (got " + format_double(options.max_gap_s) + ")");
-  }
-  check_trace_shape(trace, source);
-  const std::vector<double>& t = trace.time_s;
-  const std::vector<Vec3d>& p = trace.position_mm;
-  const std::size_t n = t.size();
-  if (n < 2) throw InputError(source, "need at least 2 samples, found " + std::to_string(n));
-  for (std::size_t i = 1; i < n; ++i) {
-    if (!(t[i] > t[i - 1])) {
-      throw InputError(source, "times must strictly increase (index " + std::to_string(i) + ")");
-    }
-  }
-
-  ResampledTrace out;
-  out.rate_hz = options.rate_hz;
-  const double t0 = t.front();
-  // The small slack keeps a tick that lands on the last sample up to rounding (e.g. a 1 s
-  // trace at 1 kHz has 1001 ticks even if (t_end - t0) * rate is 999.9999999999).
-  const double last_k = std::floor((t.back() - t0) * options.rate_hz + 1e-9);
-  if (last_k + 1 > kMaxTicks) {
-    throw InputError(source,
-                     "resampling would produce " + format_double(last_k + 1) + " ticks (too many)");
-  }
-  const std::size_t ticks = static_cast<std::size_t>(last_k) + 1;
-  out.time_s.reserve(ticks);
-  out.position_mm.reserve(ticks);
-  out.holding.reserve(ticks);
-  const std::vector<Eigen::Quaterniond>& q = trace.orientation;
-  const bool turning = !q.empty();
-  if (turning) {
-    HAPVOX_CHECK_EQ(q.size(), n);
-    out.orientation.reserve(ticks);
-  }
-
-  for (std::size_t i = 0; i + 1 < n; ++i) {
-    const double dt = t[i + 1] - t[i];
-    if (dt > options.max_gap_s) {
-      ++out.gap_count;
-      out.held_time_s += dt;
-    }
-  }
-
-  std::size_t j = 0;  // current step: t[j] <= tick < t[j + 1]
-  for (std::size_t k = 0; k < ticks; ++k) {
-    // k / rate, not a running sum, so long traces do not drift.
-    const double tick = t0 + static_cast<double>(k) / options.rate_hz;
-    while (j + 2 < n && t[j + 1] <= tick) ++j;
-    const double dt = t[j + 1] - t[j];
-    Vec3d position;
-    std::uint8_t holding = 0;
-    double u = 0.0;  // along the step j -> j + 1
-    if (tick >= t[j + 1]) {
-      u = 1.0;  // only at (or within rounding past) the last sample
-      position = p[j + 1];
-    } else if (dt > options.max_gap_s) {
-      position = p[j];
-      holding = tick > t[j] ? 1 : 0;
-    } else {
-      u = std::clamp((tick - t[j]) / dt, 0.0, 1.0);
-      position = p[j] + u * (p[j + 1] - p[j]);
-    }
-    out.time_s.push_back(tick);
-    out.position_mm.push_back(position);
-    out.holding.push_back(holding);
-    // The orientation turns along the shorter arc between the samples, as the position
-    // moves along the straight line.
-    if (turning) out.orientation.push_back(q[j].slerp(u, q[j + 1]));
-  }
-  return out;
 }
 
 // --- Synthetic traces -----------------------------------------------------------------------

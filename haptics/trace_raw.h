@@ -1,6 +1,6 @@
 #pragma once
-// What every trace reader shares (trace.cc, trace_h3d.cc): samples as read, in file units,
-// and the checks and unit scaling that make them a Trace.
+// What every trace reader shares (trace.cc, trace_h3d.cc, trace_h5.cc, trace_resample.cc): samples
+// as read, in file units, and the checks and unit scaling that make them a Trace.
 
 #include <array>
 #include <functional>
@@ -26,7 +26,19 @@ struct RawTrace {
 Trace finish_trace(const std::string& source, const TraceColumns& columns, const RawTrace& raw);
 
 /// The text of a trace file with a UTF-8 byte-order mark removed; InputError(path,
-/// "cannot open file") when it cannot be read.
+/// "cannot open file") when it cannot be read, InputError(path, "holds N MB, over the limit
+/// ...") past --max-input-mb (engine/input_limits.h), before it is read.
 std::string read_trace_text(const std::string& path);
+
+/// InputError(source, "time scale must be positive and finite ...") (or the position scale's)
+/// when `columns`' unit scales are not.
+void check_scales(const std::string& source, const TraceColumns& columns);
+
+/// The shortest text that reads back as `v` ("0.5", not "0.50000000000000000").
+std::string format_double(double v);
+
+/// InputError(source, "trace has N times but M positions") when the trace's vectors differ
+/// in length.
+void check_trace_shape(const Trace& trace, const std::string& source);
 
 }  // namespace hapvox::haptics::detail

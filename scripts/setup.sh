@@ -17,6 +17,7 @@ packages=(
   python3-h5py python3-numpy python3-matplotlib
   python3-nibabel mricron-data  # an independent NIfTI reader and real NIfTI files, for tests
   python3-pydicom  # DICOM test files and series written by another tool, for tests
+  time  # GNU time: the input-limit tests measure hapvox's memory and time with it
   parallel  # sweep --hosts runs its rows through GNU parallel (GPL-3): a program run, never linked
   pybind11-dev python3-dev python3-pytest  # the Python bindings (python/) and their tests
   dpkg-dev  # cpack -G DEB: dpkg-shlibdeps works out the package's dependencies

@@ -286,22 +286,48 @@ void set_command_line(int argc, char** argv) {
 
 const std::string& command_line() { return command_line_storage(); }
 
+namespace {
+
+// A name the file system cannot hold (a part over NAME_MAX bytes, usually 255) made
+// std::filesystem throw: "internal error: filesystem error", exit 1. Said here, as the path's
+// problem, the path cut short to keep the line's problem in view. The ".partial" every
+// output file is written through first counts.
+void check_name_lengths(const std::string& output) {
+  namespace fs = std::filesystem;
+  const fs::path path(output);
+  const fs::path parent = path.parent_path();
+  const long name_max = pathconf(parent.empty() ? "." : parent.c_str(), _PC_NAME_MAX);
+  const std::size_t limit = name_max > 0 ? static_cast<std::size_t>(name_max) : 255;
+  const auto refuse = [&](const std::string& problem) {
+    throw InputError(printable(output, 120), problem + ", longer than the file system allows (" +
+                                                 std::to_string(limit) + ")");
+  };
+  for (const fs::path& part : parent) {
+    if (part.native().size() > limit) {
+      refuse("a folder name of " + std::to_string(part.native().size()) + " bytes");
+    }
+  }
+  const std::size_t bytes = path.filename().native().size();
+  if (bytes + 8 > limit) {
+    refuse("a file name of " + std::to_string(bytes) + " bytes (" + std::to_string(bytes + 8) +
+           " as NAME.partial, while it is written)");
+  }
+}
+
+}  // namespace
+
 void check_output_path(const std::string& output, const std::string& flag) {
   namespace fs = std::filesystem;
   if (output.empty()) throw InputError(flag, "an output path is required");
-  const std::size_t name_bytes = fs::path(output).filename().string().size();
-  if (name_bytes + 8 > engine::io::kMaxFileNameBytes) {
-    throw InputError(output, "file name is too long: at most " +
-                                 std::to_string(engine::io::kMaxFileNameBytes - 8) +
-                                 " bytes (the file is written first as NAME.partial)");
-  }
+  check_name_lengths(output);
   std::error_code ec;
   const fs::path parent = fs::path(output).parent_path();
   if (!parent.empty() && !fs::is_directory(parent, ec)) {
     throw InputError(output, "output directory " + parent.string() + " does not exist");
   }
-  if (fs::is_directory(output, ec))
+  if (fs::is_directory(output, ec)) {
     throw InputError(output, "is a directory, expected a file name");
+  }
 }
 
 namespace {
@@ -356,7 +382,8 @@ std::vector<InputPath> volume_inputs(const std::string& spec) {
   if (spec.empty()) return inputs;
   const engine::io::VolumeFormat* format = engine::io::find_volume_format(spec);
   // A raw file's spec ("ct.raw:dims=...") is no file; the file it names is.
-  const bool file = fs::exists(spec);
+  std::error_code ec;
+  const bool file = fs::exists(spec, ec);
   if (!file && (format == nullptr || !format->takes_options)) return inputs;
   if (file) inputs.push_back({spec, "volume"});
   if (format != nullptr) {
@@ -381,6 +408,9 @@ std::vector<InputPath> transfer_inputs(const std::string& spec) {
 
 void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
                                 const std::vector<InputPath>& inputs) {
+  for (const OutputPath& output : outputs) {
+    if (!output.path.empty()) check_name_lengths(output.path);
+  }
   // One command's outputs, each against the others: the last written would replace the rest.
   for (std::size_t i = 0; i < outputs.size(); ++i) {
     for (std::size_t j = i + 1; j < outputs.size(); ++j) {

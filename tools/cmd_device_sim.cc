@@ -13,6 +13,7 @@
 #include "engine/errors.h"
 #include "engine/io/output_file.h"
 #include "haptics/bridge_client.h"
+#include "haptics/trace_resample.h"
 #include "tools/cli.h"
 
 namespace hapvox::cli {
@@ -68,7 +69,7 @@ void run_device_sim(const DeviceSimFlags& f) {
   haptics::ResampleOptions resample_options;
   resample_options.rate_hz = f.trace.rate_hz;
   resample_options.max_gap_s = f.trace.max_gap_s;
-  const haptics::ResampledTrace ticks = haptics::resample(trace, resample_options);
+  const haptics::ResampledTrace ticks = haptics::resample(trace, resample_options, f.trace_path);
   const haptics::SocketAddress address = haptics::resolve_udp_address(to, "--to");
   haptics::UdpAddress local;
   local.host = address.storage.ss_family == AF_INET6 ? "::" : "0.0.0.0";

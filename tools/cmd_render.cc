@@ -8,6 +8,7 @@
 
 #include "engine/errors.h"
 #include "engine/relax.h"
+#include "haptics/trace_resample.h"
 #include "haptics/voxel_model.h"
 #include "tools/cli.h"
 #include "tools/render_command.h"
@@ -37,8 +38,8 @@ std::unique_ptr<haptics::TraceDevice> render_trace_device(const RenderCommandFla
   haptics::ResampleOptions resample_options;
   resample_options.rate_hz = f.trace.rate_hz;
   resample_options.max_gap_s = f.trace.max_gap_s;
-  auto device = std::make_unique<haptics::TraceDevice>(haptics::resample(trace, resample_options),
-                                                       f.transform.resolve(trace, field));
+  auto device = std::make_unique<haptics::TraceDevice>(
+      haptics::resample(trace, resample_options, f.trace_path), f.transform.resolve(trace, field));
   if (device->tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
   return device;
 }

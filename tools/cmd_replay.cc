@@ -11,6 +11,7 @@
 
 #include "engine/errors.h"
 #include "haptics/realtime.h"
+#include "haptics/trace_resample.h"
 #include "haptics/voxel_model.h"
 #include "tools/cli.h"
 #include "tools/render_output.h"
@@ -133,8 +134,9 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
     haptics::ResampleOptions resample_options;
     resample_options.rate_hz = f.trace.rate_hz;
     resample_options.max_gap_s = f.trace.max_gap_s;
-    traced = std::make_unique<haptics::TraceDevice>(haptics::resample(trace, resample_options),
-                                                    f.transform.resolve(trace, field));
+    traced = std::make_unique<haptics::TraceDevice>(
+        haptics::resample(trace, resample_options, f.trace_path),
+        f.transform.resolve(trace, field));
     warnings = replay_warnings(f.trace_path, model, *traced);
   }
   haptics::Device& device = fronted  ? *fronted
@@ -223,16 +225,19 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       s = haptics::replay_lockstep(force, relaxation.get(), device, f.limits, &session, progress,
                                    &sculpted, recorder ? &render : nullptr);
     }
-    refuse_empty_run(f, s);
   } catch (...) {
     session.abandon();
     throw;
   }
-  write_summary_attributes(session, f, s, timing);
   // The bridge, ours or behind a window's device (sculpt --device).
   const haptics::BridgeDevice* bridged = bridge                   ? bridge.get()
                                          : f.front_end != nullptr ? f.front_end->bridge
                                                                   : nullptr;
+  if (s.ticks == 0) {
+    session.abandon();
+    refuse_empty_run(f, s, bridged);
+  }
+  write_summary_attributes(session, f, s, timing);
   if (bridged != nullptr) write_bridge_attributes(session, *bridged);
   if (f.realtime && f.plastic) {
     session.set_attribute("summary_relax_slice_p50_us", timing.relax_slice.p50_us);

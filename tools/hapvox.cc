@@ -24,6 +24,7 @@ void add_recover_command(CLI::App& app);         // tools/cmd_recover.cc
 void add_device_sim_command(CLI::App& app);      // tools/cmd_device_sim.cc
 void add_sculpt_command(CLI::App& app);          // tools/cmd_sculpt.cc
 void add_sweep_command(CLI::App& app);           // tools/cmd_sweep.cc
+void add_input_limit_flags(CLI::App& app);       // tools/input_limits.cc
 }  // namespace hapvox::cli
 
 namespace {
@@ -94,7 +95,8 @@ int main(int argc, char** argv) {
   hapvox::cli::add_device_sim_command(app);
   hapvox::cli::add_sculpt_command(app);
   hapvox::cli::add_sweep_command(app);
-  hapvox::cli::refuse_nan_values(app);
+  hapvox::cli::add_input_limit_flags(app);
+  hapvox::cli::refuse_nan_values(app);  // after every option is added
   try {
     check_command_names(app, argc, argv);
     app.parse(argc, argv);
@@ -108,7 +110,8 @@ int main(int argc, char** argv) {
     print_diagnostic("error", e.what(), " (see hapvox --help)");
     return 2;
   } catch (const hapvox::InputError& e) {
-    print_diagnostic("error", e.what());
+    // Its parts, not what(): a C string, which stops at a NUL a file's text may hold.
+    print_diagnostic("error", e.source() + ": " + e.problem());
     return 2;
   } catch (const hapvox::render::RenderError& e) {
     // No EGL, no surfaceless platform, a driver refusing the context: the machine's

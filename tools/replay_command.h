@@ -156,7 +156,9 @@ std::string run_source(const ReplayFlags& f);
 /// A run in which no tick ran (a live device that sent nothing, a stop before the first
 /// tick) records nothing: throws InputError(run_source(f), "... nothing written to OUT"),
 /// which the caller's handler turns into exit 2 after abandoning the session.
-void refuse_empty_run(const ReplayFlags& f, const haptics::ReplaySummary& s);
+/// With the bridge, the line says what it refused (other senders', unauthenticated packets).
+void refuse_empty_run(const ReplayFlags& f, const haptics::ReplaySummary& s,
+                      const haptics::BridgeDevice* bridged = nullptr);
 
 /// The flags every model checks alike (limits, rates, scheduling); InputError naming the flag.
 void check_loop_flags(const ReplayFlags& f);

@@ -16,6 +16,7 @@
 #include "engine/errors.h"
 #include "haptics/fem_model.h"
 #include "haptics/mesh_file.h"
+#include "haptics/trace_resample.h"
 #include "tools/relabel.h"
 #include "tools/replay_command.h"
 
@@ -119,8 +120,9 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
     haptics::ResampleOptions resample_options;
     resample_options.rate_hz = f.trace.rate_hz;
     resample_options.max_gap_s = f.trace.max_gap_s;
-    traced = std::make_unique<haptics::TraceDevice>(haptics::resample(*trace, resample_options),
-                                                    f.transform.resolve(*trace, field));
+    traced = std::make_unique<haptics::TraceDevice>(
+        haptics::resample(*trace, resample_options, f.trace_path),
+        f.transform.resolve(*trace, field));
     if (traced->tick_count() == 0) throw InputError(f.trace_path, "the trace has no samples");
   }
   // The bridge's loop runs at the trace flags' rate (make_bridge_device).
@@ -213,7 +215,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
       s = haptics::replay_lockstep(force, &fem, device, f.limits, &session, progress, nullptr,
                                    recorder ? &render : nullptr);
     }
-    refuse_empty_run(f, s);
+    refuse_empty_run(f, s, bridged);
     force.write_attributes(session);
     write_summary_attributes(session, f, s, timing);
     if (f.realtime && !windowed) {

@@ -80,13 +80,22 @@ std::string run_source(const ReplayFlags& f) {
   return f.device.empty() ? f.trace_path : f.device;
 }
 
-void refuse_empty_run(const ReplayFlags& f, const haptics::ReplaySummary& s) {
+void refuse_empty_run(const ReplayFlags& f, const haptics::ReplaySummary& s,
+                      const haptics::BridgeDevice* bridged) {
   if (s.ticks > 0) return;
+  std::string refused;
+  if (bridged != nullptr) {
+    const haptics::BridgeCounters& c = bridged->counters();
+    if (c.foreign + c.unauthenticated + c.out_of_window > 0) {
+      refused = " (the bridge refused " + std::to_string(c.foreign) + " datagrams from other " +
+                "senders, " + std::to_string(c.unauthenticated) + " unauthenticated, " +
+                std::to_string(c.out_of_window) + " out of the sequence window)";
+    }
+  }
   throw InputError(run_source(f), f.device.empty() && f.front_end == nullptr
                                       ? "no tick ran: nothing written to " + f.output
-                                      : "no position arrived before the run ended: no tick ran, "
-                                        "nothing written to " +
-                                            f.output);
+                                      : "no position arrived before the run ended" + refused +
+                                            ": no tick ran, nothing written to " + f.output);
 }
 
 void check_loop_flags(const ReplayFlags& f) {

@@ -17,6 +17,7 @@
 #include "engine/errors.h"
 #include "engine/io/child_read.h"
 #include "engine/io/direction.h"
+#include "engine/io/payload.h"
 #include "engine/io/samples.h"
 #include "engine/io/text.h"
 
@@ -242,6 +243,8 @@ RawVolume read_dicom_here(const std::string& path) {
     throw InputError(path, "a " + std::to_string(columns) + " x " + std::to_string(rows) + " x " +
                                std::to_string(depth) + " series is too large (over 2^31 samples)");
   }
+  const std::int64_t dims[3] = {columns, rows, depth};
+  check_volume_budget(dims, sizeof(float), "", path);
   raw.dims = Vec3i(static_cast<int>(columns), static_cast<int>(rows), static_cast<int>(depth));
   const auto per_slice = static_cast<std::size_t>(rows * columns);
   raw.intensity.resize(per_slice * slices.size());

@@ -202,8 +202,9 @@ RawVolume read_metaimage(const std::string& path) {
   const std::string& dim_text = require(header, "dimsize", "DimSize", path);
   const auto sizes = split_ws(dim_text);
   std::int64_t samples = 1;
+  std::int64_t dims[3] = {};
   for (std::size_t i = 0; i < 3; ++i) {
-    std::int64_t s = 0;
+    std::int64_t& s = dims[i];
     if (sizes.size() != 3 || !parse_int(sizes[i], &s) || s <= 0) {
       throw InputError(
           path, "DimSize must list 3 positive integers, got '" + printable(dim_text, 60) + "'");
@@ -223,6 +224,7 @@ RawVolume read_metaimage(const std::string& path) {
   }
   const SampleTypeInfo& type = sample_type_info(type_it->second);
   raw.sample_type = type.name;
+  check_volume_budget(dims, type.size, type.name, path);
 
   std::string name;
   if (const std::string* v = find_any(header, {"ElementSpacing", "ElementSize"}, &name)) {

@@ -1,10 +1,15 @@
 #include "engine/io/nifti.h"
 
+#include <fcntl.h>
 #include <nifti2_io.h>
+#include <unistd.h>
+#include <zlib.h>
 
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +18,7 @@
 #include <vector>
 
 #include "engine/errors.h"
+#include "engine/input_limits.h"
 #include "engine/io/direction.h"
 #include "engine/io/payload.h"
 #include "engine/io/samples.h"
@@ -90,14 +96,112 @@ double mm_per_unit(int xyz_units) {
   }
 }
 
+// nifticlib prints some errors to stderr whatever its debug level (nifti2_io.c's ERREX and
+// LNI_FERR: "** ERROR: nifti_convert_n1hdr2nim: bad dim[1]"), which broke hapvox's one line
+// in three. While it reads a header, stderr goes into a pipe (non-blocking: what does not fit
+// is dropped), and its first message is folded into our line. Under nifti_mutex(); another
+// thread's stderr in that window would land there too, and hapvox reads volumes before it
+// starts threads.
+class NiftiChatter {
+ public:
+  NiftiChatter() {
+    int fds[2];
+    if (pipe2(fds, O_NONBLOCK | O_CLOEXEC) != 0) return;
+    read_end_ = fds[0];
+    std::fflush(stderr);
+    saved_ = dup(STDERR_FILENO);
+    if (saved_ < 0 || dup2(fds[1], STDERR_FILENO) < 0) restore();
+    close(fds[1]);
+  }
+  ~NiftiChatter() {
+    restore();
+    if (read_end_ >= 0) close(read_end_);
+  }
+  NiftiChatter(const NiftiChatter&) = delete;
+  NiftiChatter& operator=(const NiftiChatter&) = delete;
+
+  /// nifticlib's first line, without its "** ERROR (...): " prefix ("" when it said nothing).
+  std::string first_line() {
+    restore();
+    std::string text;
+    char piece[512];
+    for (ssize_t got; read_end_ >= 0 && (got = read(read_end_, piece, sizeof piece)) > 0;) {
+      text.append(piece, static_cast<std::size_t>(got));
+    }
+    std::string line = text.substr(0, text.find('\n'));
+    const auto prefix_end = line.rfind("): ");
+    if (line.starts_with("** ") && prefix_end != std::string::npos) {
+      line.erase(0, prefix_end + 3);
+    } else if (const auto colon = line.rfind(": "); line.starts_with("** ") && colon != line.npos) {
+      line.erase(0, colon + 2);
+    }
+    return trim(line);
+  }
+
+ private:
+  void restore() {
+    if (saved_ < 0) return;
+    std::fflush(stderr);
+    dup2(saved_, STDERR_FILENO);
+    close(saved_);
+    saved_ = -1;
+  }
+  int read_end_ = -1;
+  int saved_ = -1;
+};
+
+// nifticlib makes a non-finite pixdim 1 (nifti_convert_n1hdr2nim's "set bad grid spacings to
+// 1.0"): a NaN became 1 mm without a word. The spatial pixdims are checked in the header's own
+// bytes, and a non-finite one refused (a zero one stays 1, as nifticlib has it).
+// gzread reads a plain file as it is. A header too short or of no known size is left to
+// nifticlib, which says so.
+void check_raw_pixdims(const std::string& path) {
+  const gzFile file = gzopen(path.c_str(), "rb");
+  if (file == nullptr) return;
+  unsigned char bytes[sizeof(nifti_2_header)] = {};
+  const int got = gzread(file, bytes, sizeof bytes);
+  gzclose(file);
+  std::int32_t header_size = 0;
+  std::memcpy(&header_size, bytes, sizeof header_size);
+  const bool swap = header_size != 348 && header_size != 540;
+  if (swap) nifti_swap_4bytes(1, &header_size);
+  const bool two = header_size == 540;
+  if ((header_size != 348 && !two) || got < header_size) return;
+  for (int a = 1; a <= 3; ++a) {
+    double pixdim = 0.0;
+    if (two) {
+      std::memcpy(&pixdim, bytes + offsetof(nifti_2_header, pixdim) + 8 * a, 8);
+      if (swap) nifti_swap_8bytes(1, &pixdim);
+    } else {
+      float single = 0.0F;
+      std::memcpy(&single, bytes + offsetof(nifti_1_header, pixdim) + 4 * a, 4);
+      if (swap) nifti_swap_4bytes(1, &single);
+      pixdim = single;
+    }
+    if (!std::isfinite(pixdim)) {
+      throw InputError(path, "pixdim[" + std::to_string(a) + "] is " +
+                                 (std::isnan(pixdim) ? "NaN" : "infinite") +
+                                 " (a voxel size must be a finite number of units)");
+    }
+  }
+}
+
 ImagePtr read_header_only(const std::string& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError(path, "cannot open file");
   std::lock_guard lock(nifti_mutex());
-  ImagePtr image(nifti_image_read(path.c_str(), /*read_data=*/0));
-  if (image == nullptr) {
-    throw InputError(path, "not a NIfTI file (its header does not parse as NIfTI-1 or -2)");
+  ImagePtr image;
+  std::string said;
+  {
+    NiftiChatter chatter;
+    image.reset(nifti_image_read(path.c_str(), /*read_data=*/0));
+    said = chatter.first_line();
   }
+  if (image == nullptr) {
+    throw InputError(path, "not a NIfTI file (its header does not parse as NIfTI-1 or -2" +
+                               (said.empty() ? "" : ": " + printable(said, 120)) + ")");
+  }
+  check_raw_pixdims(path);
   return image;
 }
 
@@ -140,6 +244,7 @@ RawVolume read_nifti(const std::string& path) {
     samples *= sizes[a];
     raw.dims[a] = static_cast<int>(sizes[a]);
   }
+  check_volume_budget(sizes, type->size, type->name, path);
 
   // Index -> RAS millimetres, then into LPS: negate the x and y rows.
   const double unit = mm_per_unit(nim.xyz_units);

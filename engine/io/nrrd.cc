@@ -25,14 +25,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Printable excerpt of possibly binary text, for error messages.
-std::string printable(const std::string& s, std::size_t max_len = 40) {
-  std::string out;
-  for (char c : s.substr(0, max_len)) {
-    out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
-  }
-  if (s.size() > max_len) out += "...";
-  return out;
+// A header's text in a message: in quotes, printable (a NUL or a control byte as \xNN, the
+// whole length: a value may hold a NUL where a C string would stop), cut short.
+std::string quoted_value(const std::string& s, std::size_t max_len = 60) {
+  return "'" + hapvox::printable(s, max_len) + "'";
 }
 
 struct NrrdHeader {
@@ -51,13 +47,13 @@ NrrdHeader read_header(std::istream& in, const std::string& path) {
   if (magic_str.size() < 8 || magic_str.compare(0, 7, "NRRD000") != 0 ||
       !std::isdigit(static_cast<unsigned char>(magic_str[7]))) {
     throw InputError(
-        path, "not a NRRD file (bad magic '" + printable(magic_str) + "', expected NRRD000N)");
+        path, "not a NRRD file (bad magic " + quoted_value(magic_str) + ", expected NRRD000N)");
   }
   std::string line;
   std::getline(in, line);
   if (!trim(line).empty()) {
     throw InputError(path,
-                     "not a NRRD file (bad magic line '" + printable(magic_str + line) + "')");
+                     "not a NRRD file (bad magic line " + quoted_value(magic_str + line) + ")");
   }
   constexpr std::size_t kMaxHeaderLines = 10000;
   for (std::size_t count = 0; std::getline(in, line); ++count) {
@@ -70,7 +66,7 @@ NrrdHeader read_header(std::istream& in, const std::string& path) {
     if (line[0] == '#') continue;
     const auto colon = line.find(':');
     if (colon == std::string::npos) {
-      throw InputError(path, "malformed header line '" + printable(line) + "'");
+      throw InputError(path, "malformed header line " + quoted_value(line));
     }
     if (colon + 1 < line.size() && line[colon + 1] == '=') {  // key:=value pair
       header.values[line.substr(0, colon)] = line.substr(colon + 2);
@@ -83,7 +79,7 @@ NrrdHeader read_header(std::istream& in, const std::string& path) {
     if (key == "byteskip") key = "byte skip";
     if (key == "centerings") key = "centers";
     if (!header.fields.emplace(key, trim(line.substr(colon + 1))).second) {
-      throw InputError(path, "field '" + key + "' appears twice");
+      throw InputError(path, "field " + quoted_value(key) + " appears twice");
     }
   }
   header.data_start = in.tellg();
@@ -98,7 +94,7 @@ const std::string* find_field(const NrrdHeader& h, const std::string& key) {
 const std::string& require_field(const NrrdHeader& h, const std::string& key,
                                  const std::string& path) {
   const std::string* v = find_field(h, key);
-  if (v == nullptr) throw InputError(path, "missing required field '" + key + "'");
+  if (v == nullptr) throw InputError(path, "missing required field " + quoted_value(key));
   return *v;
 }
 
@@ -175,14 +171,14 @@ RawVolume read_nrrd(const std::string& path) {
   }();
   const SampleTypeInfo* type_found = find_sample_type(type_norm);
   if (type_found == nullptr) {
-    throw InputError(path, "unsupported sample type '" + type_text + "'");
+    throw InputError(path, "unsupported sample type " + quoted_value(type_text));
   }
   const SampleTypeInfo type = *type_found;
 
   const std::string& dim_text = require_field(header, "dimension", path);
   std::int64_t dimension = 0;
   if (!parse_int(dim_text, &dimension)) {
-    throw InputError(path, "bad dimension '" + dim_text + "'");
+    throw InputError(path, "bad dimension " + quoted_value(dim_text));
   }
   if (dimension != 3) {
     throw InputError(path,
@@ -194,25 +190,28 @@ RawVolume read_nrrd(const std::string& path) {
   const std::string& sizes_text = require_field(header, "sizes", path);
   const auto sizes = split_ws(sizes_text);
   if (sizes.size() != 3)
-    throw InputError(path, "sizes must list 3 values, got '" + sizes_text + "'");
+    throw InputError(path, "sizes must list 3 values, got " + quoted_value(sizes_text));
   std::int64_t samples = 1;
+  std::int64_t dims[3] = {};
   for (int i = 0; i < 3; ++i) {
-    std::int64_t s = 0;
+    std::int64_t& s = dims[i];
     if (!parse_int(sizes[static_cast<std::size_t>(i)], &s) || s <= 0) {
-      throw InputError(path, "sizes must be positive integers, got '" + sizes_text + "'");
+      throw InputError(path, "sizes must be positive integers, got " + quoted_value(sizes_text));
     }
     if (s > kMaxSamples || samples * s > kMaxSamples) {
-      throw InputError(path, "sizes '" + sizes_text + "' are too large (over 2^31 samples)");
+      throw InputError(path,
+                       "sizes " + quoted_value(sizes_text) + " are too large (over 2^31 samples)");
     }
     samples *= s;
     raw.dims[i] = static_cast<int>(s);
   }
+  check_volume_budget(dims, type.size, type.name, path);
 
   if (const std::string* kinds = find_field(header, "kinds")) {
     for (const auto& kind : split_ws(lower(*kinds))) {
       if (kind != "domain" && kind != "space" && kind != "none" && kind != "???") {
-        throw InputError(path, "axis kind '" + kind +
-                                   "' is not supported (only scalar volumes with 3 spatial "
+        throw InputError(path, "axis kind " + quoted_value(kind) +
+                                   " is not supported (only scalar volumes with 3 spatial "
                                    "axes are)");
       }
     }
@@ -222,13 +221,14 @@ RawVolume read_nrrd(const std::string& path) {
   if (const std::string* dirs = find_field(header, "space directions")) {
     const auto vecs = split_vectors(*dirs);
     if (vecs.size() != 3) {
-      throw InputError(path, "space directions must give 3 vectors, got '" + *dirs + "'");
+      throw InputError(path, "space directions must give 3 vectors, got " + quoted_value(*dirs));
     }
     for (int i = 0; i < 3; ++i) {
       Vec3d v;
       if (!parse_vector3(vecs[static_cast<std::size_t>(i)], &v)) {
-        throw InputError(path, "bad space direction '" + vecs[static_cast<std::size_t>(i)] +
-                                   "' (expected (x,y,z))");
+        throw InputError(path, "bad space direction " +
+                                   quoted_value(vecs[static_cast<std::size_t>(i)]) +
+                                   " (expected (x,y,z))");
       }
       raw.spacing_mm[i] = v.norm();
       if (raw.spacing_mm[i] > 0.0) raw.direction.col(i) = v / raw.spacing_mm[i];
@@ -239,11 +239,11 @@ RawVolume read_nrrd(const std::string& path) {
   } else if (const std::string* spacings = find_field(header, "spacings")) {
     const auto parts = split_ws(*spacings);
     if (parts.size() != 3) {
-      throw InputError(path, "spacings must list 3 values, got '" + *spacings + "'");
+      throw InputError(path, "spacings must list 3 values, got " + quoted_value(*spacings));
     }
     for (int i = 0; i < 3; ++i) {
       if (!parse_double(parts[static_cast<std::size_t>(i)], &raw.spacing_mm[i])) {
-        throw InputError(path, "bad spacings '" + *spacings + "'");
+        throw InputError(path, "bad spacings " + quoted_value(*spacings));
       }
     }
   }
@@ -256,7 +256,7 @@ RawVolume read_nrrd(const std::string& path) {
   }
   if (const std::string* origin = find_field(header, "space origin")) {
     if (!parse_vector3(*origin, &raw.origin_mm) || !raw.origin_mm.allFinite()) {
-      throw InputError(path, "bad space origin '" + *origin + "' (expected (x,y,z))");
+      throw InputError(path, "bad space origin " + quoted_value(*origin) + " (expected (x,y,z))");
     }
   }
   if (const std::string* space = find_field(header, "space")) {
@@ -269,8 +269,8 @@ RawVolume read_nrrd(const std::string& path) {
       flip = Vec3d(1, -1, 1);
     } else if (s != "left-posterior-superior" && s != "lps" && s != "scanner-xyz" &&
                s != "3d-right-handed" && s != "3d-left-handed") {
-      throw InputError(path, "space '" + printable(*space) +
-                                 "' is not supported (expected a 3-D space such as "
+      throw InputError(path, "space " + quoted_value(*space) +
+                                 " is not supported (expected a 3-D space such as "
                                  "left-posterior-superior or right-anterior-superior)");
     }
     raw.direction = flip.asDiagonal() * raw.direction;
@@ -284,7 +284,8 @@ RawVolume read_nrrd(const std::string& path) {
   const std::string encoding = lower(require_field(header, "encoding", path));
   const bool gzip = encoding == "gzip" || encoding == "gz";
   if (!gzip && encoding != "raw") {
-    throw InputError(path, "unsupported encoding '" + encoding + "' (expected raw or gzip)");
+    throw InputError(path,
+                     "unsupported encoding " + quoted_value(encoding) + " (expected raw or gzip)");
   }
 
   bool swap = false;
@@ -293,7 +294,7 @@ RawVolume read_nrrd(const std::string& path) {
     if (endian == nullptr) throw InputError(path, "missing required field 'endian'");
     const std::string e = lower(*endian);
     if (e != "little" && e != "big") {
-      throw InputError(path, "bad endian '" + *endian + "' (expected little or big)");
+      throw InputError(path, "bad endian " + quoted_value(*endian) + " (expected little or big)");
     }
     swap = (e == "big") != (std::endian::native == std::endian::big);
   }
@@ -302,12 +303,13 @@ RawVolume read_nrrd(const std::string& path) {
   std::int64_t byte_skip = 0;
   if (const std::string* v = find_field(header, "line skip")) {
     if (!parse_int(*v, &line_skip) || line_skip < 0) {
-      throw InputError(path, "line skip must be a non-negative integer, got '" + *v + "'");
+      throw InputError(path, "line skip must be a non-negative integer, got " + quoted_value(*v));
     }
   }
   if (const std::string* v = find_field(header, "byte skip")) {
     if (!parse_int(*v, &byte_skip) || byte_skip < -1) {
-      throw InputError(path, "byte skip must be a non-negative integer (or -1), got '" + *v + "'");
+      throw InputError(path,
+                       "byte skip must be a non-negative integer (or -1), got " + quoted_value(*v));
     }
   }
 
@@ -317,13 +319,14 @@ RawVolume read_nrrd(const std::string& path) {
   if (const std::string* data_file = find_field(header, "data file")) {
     if (data_file->rfind("LIST", 0) == 0 || data_file->find('%') != std::string::npos ||
         split_ws(*data_file).size() != 1) {
-      throw InputError(path, "multi-file data ('data file: " + *data_file + "') is not supported");
+      throw InputError(
+          path, "multi-file data (data file: " + quoted_value(*data_file) + ") is not supported");
     }
     fs::path file(*data_file);
     if (file.is_relative()) file = fs::path(path).parent_path() / file;
     detached.open(file, std::ios::binary);
     if (!detached || fs::is_directory(file)) {
-      throw InputError(path, "cannot open data file '" + file.string() + "'");
+      throw InputError(path, "cannot open data file " + quoted_value(file.string(), 200));
     }
     data = &detached;
   } else if (!header.has_blank_line) {

@@ -3,12 +3,14 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
 
 #include "engine/check.h"
 #include "engine/errors.h"
+#include "engine/input_limits.h"
 
 namespace hapvox::engine::io {
 namespace {
@@ -19,6 +21,22 @@ std::string truncated(std::uint64_t expected, std::uint64_t got) {
 }
 
 }  // namespace
+
+void check_volume_budget(const std::int64_t (&dims)[3], std::size_t sample_bytes,
+                         const std::string& type_name, const std::string& path) {
+  // In doubles: a corrupt header's dims may overflow any integer product.
+  const double decoded_bytes = static_cast<double>(dims[0]) * static_cast<double>(dims[1]) *
+                               static_cast<double>(dims[2]) *
+                               static_cast<double>(std::max<std::size_t>(sample_bytes, 4));
+  const InputLimits& limits = input_limits();
+  if (decoded_bytes <= static_cast<double>(limits.max_input_bytes())) return;
+  const auto mb = static_cast<std::uint64_t>(std::ceil(decoded_bytes / (1 << 20)));
+  const std::string type = type_name.empty() ? "" : " " + type_name;
+  throw InputError(path, std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
+                             std::to_string(dims[2]) + type + " samples take " +
+                             std::to_string(mb) + " MB decoded, " +
+                             over_limit(limits.max_input_mb, "MB", "--max-input-mb"));
+}
 
 // Reads exactly `n` payload bytes of raw encoding. byte_skip == -1 means the payload is the
 // last n bytes of the file. Sizes are checked before allocating, so a corrupt header cannot

@@ -14,6 +14,13 @@
 
 namespace hapvox::engine::io {
 
+/// Refuses a volume before anything is allocated when its samples, decoded as hapvox holds
+/// them (4 bytes each, 8 for float64 files), would pass --max-input-mb (engine/input_limits.h):
+/// InputError(path, "NX x NY x NZ TYPE samples take N MB decoded, over the limit of M MB
+/// (raise it with --max-input-mb)"); `type_name` may be "" (a DICOM series').
+void check_volume_budget(const std::int64_t (&dims)[3], std::size_t sample_bytes,
+                         const std::string& type_name, const std::string& path);
+
 /// Reads exactly `n` payload bytes of raw encoding after skipping `byte_skip` bytes.
 /// byte_skip == -1 means the payload is the last n bytes of the stream. Throws
 /// InputError(path, ...) when fewer or (byte_skip >= 0) more bytes follow.

@@ -145,6 +145,8 @@ RawVolume read_raw_file(const std::string& spec) {
                          layout.type->name + " after " + std::to_string(layout.header_bytes) +
                          " header bytes need " + std::to_string(needed));
   }
+  const std::int64_t dims[3] = {layout.dims.x(), layout.dims.y(), layout.dims.z()};
+  check_volume_budget(dims, layout.type->size, layout.type->name, layout.path);
   const std::vector<unsigned char> bytes =
       read_raw(in, layout.header_bytes, samples * layout.type->size, layout.path);
   RawVolume raw;

@@ -21,6 +21,7 @@
 #include "engine/errors.h"
 #include "engine/io/direction.h"
 #include "engine/io/output_file.h"
+#include "engine/io/payload.h"
 #include "engine/io/raw_volume.h"
 
 namespace hapvox::engine::io {
@@ -156,6 +157,8 @@ GridGeometry grid_geometry(const openvdb::GridBase& grid, const std::string& pat
   if (static_cast<std::int64_t>(g.dims.x()) * g.dims.y() * g.dims.z() > kMaxSamples) {
     throw InputError(path, "grid \"" + grid.getName() + "\" spans more voxels than hapvox reads");
   }
+  const std::int64_t dims[3] = {g.dims.x(), g.dims.y(), g.dims.z()};
+  check_volume_budget(dims, sizeof(float), "float", path);
   return g;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <unordered_map>
 
 #include "engine/errors.h"
 #include "engine/fem/dofs.h"
@@ -41,8 +42,13 @@ std::vector<fem::TetMaterial> tet_materials(const fem::TetMesh& mesh,
                                             const labels::Materials& materials) {
   std::vector<fem::TetMaterial> out;
   out.reserve(mesh.tets.size());
+  // Each label's material once: Materials::find searches, once per tet it grew as tets
+  // times materials.
+  std::unordered_map<labels::Label, const labels::Material*> by_label;
+  for (const labels::Material& m : materials.materials) by_label.emplace(m.label, &m);
   for (int t = 0; t < mesh.tet_count(); ++t) {
-    const labels::Material* m = materials.find(mesh.labels[t]);
+    const auto found = by_label.find(mesh.labels[t]);
+    const labels::Material* m = found == by_label.end() ? nullptr : found->second;
     if (m == nullptr) {
       throw InputError(materials.source, "label " + std::to_string(mesh.labels[t]) +
                                              " has no material (tet " + std::to_string(t) + ")");

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "engine/errors.h"
+#include "engine/input_limits.h"
 #include "test_data.h"
 
 namespace hapvox::haptics {
@@ -187,6 +188,46 @@ TEST(SweepManifest, MistakesAreOneLineNamingTheManifestsLine) {
   const std::string syntax = error("traces = ['a.csv'\n");
   EXPECT_EQ(syntax.rfind("m.toml:", 0), 0u) << syntax;
   EXPECT_EQ(syntax.find('\n'), std::string::npos) << syntax;
+}
+
+TEST(SweepManifest, RowsPastTheLimitAreCountedNotMade) {
+  // A 31 kB grid of a billion rows grew past 8 GB, --dry-run or not.
+  std::string list;
+  for (int i = 0; i < 1000; ++i) list += (i ? ", " : "") + std::to_string(i);
+  const std::string grid =
+      "traces = ['a.csv', 'b.csv']\nvolumes = ['block']\n"
+      "[options]\ntool-diameter-mm = [" +
+      list +
+      "]\n"
+      "youngs-modulus-pa = [" +
+      list +
+      "]\n"
+      "poisson = [" +
+      list + "]\n";
+  EXPECT_EQ(hapvox::testing::input_error_of([&] { parse_sweep_manifest(grid, "m.toml", ""); }),
+            "m.toml:1: describes 2000000000 replays, over the limit of 100000 rows (raise it "
+            "with --max-sweep-rows)");
+  engine::InputLimits& limits = engine::input_limits();
+  const engine::InputLimits saved = limits;
+  limits.max_sweep_rows = 3;  // explicit rows count too
+  const std::string row = "[[row]]\ntrace = 'a.csv'\nvolume = 'block'\n";
+  EXPECT_EQ(parse_sweep_manifest(row + row + row, "m.toml", "").rows.size(), 3u);
+  EXPECT_EQ(hapvox::testing::input_error_of(
+                [&] { parse_sweep_manifest(row + row + row + row, "m.toml", ""); }),
+            "m.toml:1: describes 4 replays, over the limit of 3 rows (raise it with "
+            "--max-sweep-rows)");
+  limits = saved;
+}
+
+TEST(SweepManifest, NestingPastTheDepthLimitIsRefusedBeforeTomlReadsIt) {
+  // 100,000 dotted key parts overflowed the stack inside toml++.
+  std::string key = "a";
+  for (int i = 0; i < 100000; ++i) key += ".a";
+  EXPECT_EQ(hapvox::testing::input_error_of([&] {
+              parse_sweep_manifest("traces = ['a.csv']\n" + key + " = 1\n", "m.toml", "");
+            }),
+            "m.toml:2: nests 100001 levels deep (tables, dotted keys, arrays and inline tables), "
+            "over the limit of 64");
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 // Fuzz target for the trace text parsers (CSV and H3D DeviceLog): any bytes either parse
 // into a trace (at least two samples, increasing times, finite values, unit orientations)
-// or throw InputError whose message is one line naming the source; nothing else may escape,
-// crash or hang. The first byte picks the parser (even: CSV with orientation columns, odd:
-// DeviceLog).
+// that resamples within its tick budget, or throw InputError whose message is one line
+// naming the source; nothing else may escape, crash or hang. The first byte picks the
+// parser (even: CSV with orientation columns, odd: DeviceLog).
 //
 // Built as a libFuzzer binary (trace_fuzz) where the compiler has -fsanitize=fuzzer (clang):
 // `trace_fuzz -max_total_time=60 CORPUS_DIR traces/`. With HAPVOX_FUZZ_REPLAY (in
@@ -16,10 +16,12 @@
 #include <string>
 
 #include "engine/errors.h"
+#include "engine/input_limits.h"
 #include "force_safety_check.h"
 #include "fuzz_check.h"
 #include "haptics/trace.h"
 #include "haptics/trace_h3d.h"
+#include "haptics/trace_resample.h"
 
 namespace {
 
@@ -37,6 +39,22 @@ void check_trace(const hapvox::haptics::Trace& trace) {
   hapvox::testing::abort_unless_forces_safe(trace.position_mm);
 }
 
+// A parsed trace is resampled too, under a budget of 100,000 ticks, so that a time span too
+// long for it is one line naming the trace, never gigabytes.
+void check_resampled(const hapvox::haptics::Trace& trace, const std::string& source) {
+  hapvox::engine::InputLimits& limits = hapvox::engine::input_limits();
+  const hapvox::engine::InputLimits saved = limits;
+  limits.max_trace_rows = 100'000;
+  try {
+    const auto ticks = hapvox::haptics::resample(trace, {}, source);
+    limits = saved;
+    if (ticks.time_s.empty() || ticks.time_s.size() > 100'000) std::abort();
+  } catch (...) {
+    limits = saved;
+    throw;
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -45,13 +63,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data) + 1, size - 1);
   const std::string source = "fuzz.trace";
   try {
+    hapvox::haptics::Trace trace;
     if (device_log) {
-      check_trace(hapvox::haptics::parse_h3d_device_log(text, source));
+      trace = hapvox::haptics::parse_h3d_device_log(text, source);
     } else {
       hapvox::haptics::TraceColumns columns;
       columns.orientation = {"qw", "qx", "qy", "qz"};
-      check_trace(hapvox::haptics::parse_csv_trace(text, source, columns));
+      trace = hapvox::haptics::parse_csv_trace(text, source, columns);
     }
+    check_trace(trace);
+    check_resampled(trace, source);
   } catch (const hapvox::InputError& e) {
     hapvox::testing::abort_unless_one_line_error(e, source);
   }

@@ -180,6 +180,16 @@ INSTANTIATE_TEST_SUITE_P(
         BadCsv{"no_samples", "t,x,y,z\n", "need at least 2 samples, found 0"}),
     [](const auto& info) { return std::string(info.param.name); });
 
+TEST(TraceCsvTest, AColumnNamedTwiceIsRefusedNamingIt) {
+  // Which 'x' was read depended on a search's order; now the header is refused.
+  const std::string path = write_text("twice.csv", "t,x,y,z,x\n0,1,2,3,4\n1,1,2,3,4\n");
+  EXPECT_EQ(input_error_of([&] { read_csv_trace(path); }),
+            path + ": column 'x' appears twice in the header (columns 2 and 5)");
+  // Unnamed columns (a trailing comma or two) are no names to confuse.
+  const std::string unnamed = write_text("unnamed.csv", "t,x,y,z,,\n0,1,2,3,,\n1,1,2,3,,\n");
+  EXPECT_EQ(read_csv_trace(unnamed).time_s.size(), 2u);
+}
+
 TEST(TraceCsvTest, MissingFile) {
   const std::string path = hapvox::testing::scratch_dir() + "/nope.csv";
   const std::string what = input_error_of([&] { read_trace(path); });
@@ -303,98 +313,15 @@ TEST(TraceH5Test, BadFilesNameFileAndProblem) {
   expect_error(one, "need at least 2 samples, found 1");
 }
 
-// --- Resampling -----------------------------------------------------------------------------
+// --- Transforms -----------------------------------------------------------------------------
 
-// Linear motion p(t) = a + b t, so interpolation on it must be exact.
-Vec3d linear_motion(double t) { return Vec3d(1.0, -2.0, 0.5) + t * Vec3d(3.0, 0.25, -7.0); }
-
-Trace sample_linear(const std::vector<double>& times) {
+// Times 0 and 1 s; the tests set the positions.
+Trace two_samples() {
   Trace trace;
-  for (double t : times) {
-    trace.time_s.push_back(t);
-    trace.position_mm.push_back(linear_motion(t));
-  }
+  trace.time_s = {0.0, 1.0};
+  trace.position_mm = {Vec3d::Zero(), Vec3d::Zero()};
   return trace;
 }
-
-void expect_resampled_linear(const Trace& trace) {
-  const ResampledTrace out = resample(trace);
-  const double t0 = trace.time_s.front();
-  const std::size_t expected =
-      static_cast<std::size_t>(std::floor((trace.time_s.back() - t0) * 1000.0 + 1e-9)) + 1;
-  ASSERT_EQ(out.time_s.size(), expected);
-  ASSERT_EQ(out.position_mm.size(), expected);
-  ASSERT_EQ(out.holding.size(), expected);
-  EXPECT_EQ(out.gap_count, 0);
-  EXPECT_EQ(out.held_time_s, 0.0);
-  for (std::size_t k = 0; k < expected; ++k) {
-    EXPECT_EQ(out.time_s[k], t0 + static_cast<double>(k) / 1000.0);
-    EXPECT_LT((out.position_mm[k] - linear_motion(out.time_s[k])).norm(), 1e-9) << k;
-    EXPECT_EQ(out.holding[k], 0);
-  }
-  EXPECT_LE(out.time_s.back(), trace.time_s.back() + 1e-12);
-}
-
-TEST(TraceResampleTest, From100Hz) {
-  std::vector<double> times;
-  for (int i = 0; i <= 200; ++i) times.push_back(0.25 + i / 100.0);
-  expect_resampled_linear(sample_linear(times));
-  EXPECT_EQ(resample(sample_linear(times)).time_s.size(), 2001u);
-}
-
-TEST(TraceResampleTest, FromJitteredTimes) {
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> step(0.0005, 0.02);
-  std::vector<double> times = {-0.3};
-  while (times.back() < 1.7) times.push_back(times.back() + step(rng));
-  expect_resampled_linear(sample_linear(times));
-}
-
-TEST(TraceResampleTest, From7kHz) {
-  std::vector<double> times;
-  for (int i = 0; i <= 7000; ++i) times.push_back(i / 7000.0);
-  expect_resampled_linear(sample_linear(times));
-  EXPECT_EQ(resample(sample_linear(times)).time_s.size(), 1001u);
-}
-
-TEST(TraceResampleTest, GapHoldsTheTool) {
-  // 100 Hz samples, then nothing between 0.5 s and 0.8 s.
-  std::vector<double> times;
-  for (int i = 0; i <= 50; ++i) times.push_back(i / 100.0);
-  for (int i = 80; i <= 100; ++i) times.push_back(i / 100.0);
-  const Trace trace = sample_linear(times);
-  const ResampledTrace out = resample(trace, {.rate_hz = 1000.0, .max_gap_s = 0.05});
-  ASSERT_EQ(out.time_s.size(), 1001u);
-  EXPECT_EQ(out.gap_count, 1);
-  EXPECT_NEAR(out.held_time_s, 0.3, 1e-12);
-  const Vec3d held = linear_motion(0.5);
-  for (std::size_t k = 0; k < out.time_s.size(); ++k) {
-    const double t = out.time_s[k];
-    if (t > 0.5 + 1e-9 && t < 0.8 - 1e-9) {
-      EXPECT_EQ(out.holding[k], 1) << k;
-      EXPECT_LT((out.position_mm[k] - held).norm(), 1e-12) << k;
-    } else if (t < 0.5 - 1e-9 || t > 0.8 + 1e-9) {
-      EXPECT_EQ(out.holding[k], 0) << k;
-      EXPECT_LT((out.position_mm[k] - linear_motion(t)).norm(), 1e-9) << k;
-    }
-  }
-  // With a larger allowance the same step is interpolated.
-  const ResampledTrace loose = resample(trace, {.rate_hz = 1000.0, .max_gap_s = 0.5});
-  EXPECT_EQ(loose.gap_count, 0);
-  EXPECT_EQ(loose.held_time_s, 0.0);
-}
-
-TEST(TraceResampleTest, BadOptions) {
-  const Trace trace = sample_linear({0, 1});
-  EXPECT_THAT(input_error_of([&] { resample(trace, {.rate_hz = 0.0}); }),
-              HasSubstr("resample: rate"));
-  EXPECT_THAT(input_error_of([&] { resample(trace, {.rate_hz = 1000.0, .max_gap_s = -1.0}); }),
-              HasSubstr("resample: max gap"));
-  EXPECT_THAT(input_error_of([&] { resample(sample_linear({0})); }),
-              HasSubstr("resample: need at least 2 samples"));
-}
-
-// --- Transforms -----------------------------------------------------------------------------
 
 TEST(TraceTransformTest, EulerRotationOrder) {
   const Eigen::Matrix3d rx = rotation_from_euler_deg(Vec3d(90, 0, 0));
@@ -415,7 +342,7 @@ TEST(TraceTransformTest, ApplyScalesRotatesThenOffsets) {
 }
 
 TEST(TraceTransformTest, FitIntoBoxTouchesLimitingAxis) {
-  Trace trace = sample_linear({0, 1});
+  Trace trace = two_samples();
   trace.position_mm = {Vec3d(-5, 0, 100), Vec3d(15, 4, 102)};  // extent 20 x 4 x 2
   const Vec3d box_min(0, 0, 0);
   const Vec3d box_max(100, 50, 50);
@@ -438,14 +365,14 @@ TEST(TraceTransformTest, FitIntoBoxTouchesLimitingAxis) {
 }
 
 TEST(TraceTransformTest, FitFlatAndStillTraces) {
-  Trace flat = sample_linear({0, 1});
+  Trace flat = two_samples();
   flat.position_mm = {Vec3d(0, 0, 5), Vec3d(0, 2, 5)};  // extent only along y
   const DeviceTransform fit = fit_trace_into_box(flat, Vec3d(0, 0, 0), Vec3d(10, 10, 10), 0.0);
   EXPECT_DOUBLE_EQ(fit.scale, 5.0);
   EXPECT_TRUE(fit.apply(Vec3d(0, 0, 5)).isApprox(Vec3d(5, 0, 5)));
   EXPECT_TRUE(fit.apply(Vec3d(0, 2, 5)).isApprox(Vec3d(5, 10, 5)));
 
-  Trace still = sample_linear({0, 1});
+  Trace still = two_samples();
   still.position_mm = {Vec3d(1, 2, 3), Vec3d(1, 2, 3)};
   const DeviceTransform centre = fit_trace_into_box(still, Vec3d(0, 0, 0), Vec3d(10, 20, 30));
   EXPECT_EQ(centre.scale, 1.0);

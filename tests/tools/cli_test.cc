@@ -9,6 +9,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/volume_io.h"
@@ -187,6 +188,23 @@ TEST(CliErrors, FieldsAndNamesAreEscapedAndCut) {
   // The name of the file itself, echoed by `hapvox: error:` as it is printed.
   expect_error_in(dir, "replay 'a\x1b[2Jb.csv' --volume block -o s.h5",
                   "a\\x1B[2Jb.csv: cannot open file");
+}
+
+// Issue 27: an output name over the file system's 255 bytes was "internal error: filesystem
+// error", exit 1: std::filesystem threw from a check that did not ask for an error code.
+TEST(CliErrors, AnOutputNameTooLongForTheFileSystemIsOneLine) {
+  const std::string dir = scratch_dir();
+  const std::string name = std::string(300, 'n');
+  const std::string file_problem =
+      "a file name of 304 bytes (312 as NAME.partial, while it is written)";
+  const std::string folder_problem = "a folder name of 300 bytes";
+  for (const auto& [output, problem] :
+       {std::pair{name + ".csv", file_problem}, std::pair{name + "/t.csv", folder_problem}}) {
+    const Result r = run_in(dir, "trace make press -o " + output);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err, "hapvox: error: " + std::string(120, 'n') + "...: " + problem +
+                         ", longer than the file system allows (255)\n");
+  }
 }
 
 // Issue 8: `hapvox no-such-command --help` printed the help and exited 0.

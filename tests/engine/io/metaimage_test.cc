@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine/errors.h"
+#include "engine/input_limits.h"
 #include "engine/io/io_test_util.h"
 #include "engine/volume_io.h"
 #include "test_data.h"
@@ -218,9 +219,15 @@ TEST(VolumeIoMetaImageErrors, AbsurdSizeIsRefusedBeforeAllocating) {
   // under ASan, abort), whatever the (tiny) payload.
   expect_mha_error(dir, "huge.mha", mha({"DimSize = 131072 131072 131072"}, "x"),
                    "DimSize '131072 131072 131072' is too large (over 2^31 samples)");
-  expect_mha_error(dir, "huge_z.mha",
-                   mha({"DimSize = 2048 2048 511", "CompressedData = True"}, zlib("tiny")),
-                   "truncated data");
+  const std::string big = mha({"DimSize = 2048 2048 511", "CompressedData = True"}, zlib("tiny"));
+  expect_mha_error(dir, "big_z.mha", big,
+                   "2048 x 2048 x 511 uint8 samples take 8176 MB decoded, over the limit of 2048 "
+                   "MB (raise it with --max-input-mb)");
+  InputLimits& limits = input_limits();  // raised: the payload ends short
+  const InputLimits saved = limits;
+  limits.max_input_mb = 8192;
+  expect_mha_error(dir, "huge_z.mha", big, "truncated data");
+  limits = saved;
 }
 
 }  // namespace

@@ -185,5 +185,48 @@ TEST(VolumeIoNiftiErrors, AbsurdSizeIsRefusedBeforeAllocating) {
   expect_input_error([&] { io::read_nifti(path); }, path, "too large (over 2^31 samples)");
 }
 
+TEST(VolumeIoNiftiErrors, AHeaderOverTheInputBudgetIsRefusedBeforeReadingItsData) {
+  const std::string dir = scratch_dir();
+  Nifti1 big;  // 1250^3 float32: 7.3 GiB decoded, from a file of a few hundred bytes
+  big.dim = {3, 1250, 1250, 1250, 1, 1, 1, 1};
+  big.datatype = 16;
+  big.bitpix = 32;
+  const std::string path = write_nii(dir, "big.nii.gz", gzip(big.bytes() + std::string(64, '\0')));
+  expect_input_error([&] { io::read_nifti(path); }, path,
+                     "1250 x 1250 x 1250 float samples take 7451 MB decoded, over the limit of "
+                     "2048 MB (raise it with --max-input-mb)");
+}
+
+TEST(VolumeIoNiftiErrors, NiftiClibsOwnErrorLinesAreFoldedIntoOurs) {
+  // nifticlib printed "** ERROR: nifti_convert_n1hdr2nim: bad datatype" on stderr before
+  // hapvox's line: three lines for one problem.
+  const std::string dir = scratch_dir();
+  Nifti1 untyped;
+  untyped.datatype = 0;  // DT_UNKNOWN
+  const std::string path = write_nii(dir, "untyped.nii", untyped.bytes() + "xx");
+  ::testing::internal::CaptureStderr();
+  const std::string what = hapvox::testing::input_error_of([&] { io::read_nifti(path); });
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(what, path +
+                      ": not a NIfTI file (its header does not parse as NIfTI-1 or -2: "
+                      "bad datatype)");
+}
+
+TEST(VolumeIoNiftiErrors, ANonFinitePixdimIsRefusedNotMadeOneMillimetre) {
+  const std::string dir = scratch_dir();
+  const std::string data = to_bytes(kTwelve, false);
+  Nifti1 nan;
+  nan.sform_code = 0;  // the pixdims are the spacing
+  nan.pixdim[2] = std::nanf("");
+  const std::string pnan = write_nii(dir, "nan.nii", nan.bytes() + data);
+  expect_input_error([&] { io::read_nifti(pnan); }, pnan,
+                     "pixdim[2] is NaN (a voxel size must be a finite number of units)");
+  Nifti1 inf = nan;
+  inf.pixdim[2] = 0.75f;
+  inf.pixdim[3] = INFINITY;
+  const std::string pinf = write_nii(dir, "inf.nii.gz", gzip(inf.bytes() + data));
+  expect_input_error([&] { io::read_nifti(pinf); }, pinf, "pixdim[3] is infinite");
+}
+
 }  // namespace
 }  // namespace hapvox::engine

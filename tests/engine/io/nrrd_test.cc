@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "engine/errors.h"
+#include "engine/input_limits.h"
 #include "engine/io/io_test_util.h"
 #include "test_data.h"
 
@@ -203,12 +204,36 @@ TEST(VolumeIoNrrdErrors, UnsupportedEncodingTypeAndKinds) {
                     "axis kind 'vector' is not supported");
 }
 
+TEST(VolumeIoNrrdErrors, ANulInAValueIsShownNotWhereTheMessageStops) {
+  // The message was cut at the NUL, as a C string stops there.
+  const std::string encoding = std::string("gz\0ip", 5);
+  expect_nrrd_error("nul.nrrd", make_nrrd(basic_fields("uint8", encoding), kEightBytes),
+                    "unsupported encoding 'gz\\x00ip' (expected raw or gzip)");
+  expect_nrrd_error("nul_sizes.nrrd",
+                    make_nrrd(with(basic_fields(), std::string("sizes: 2 2\0 2", 13)), kEightBytes),
+                    "sizes must be positive integers, got '2 2\\x00 2'");
+}
+
+TEST(VolumeIoNrrdErrors, SizesOverTheInputBudgetAreRefusedBeforeReading) {
+  expect_nrrd_error("big.nrrd",
+                    make_nrrd(with(basic_fields("float"), "sizes: 1024 1024 1024"), kEightBytes),
+                    "1024 x 1024 x 1024 float samples take 4096 MB decoded, over the limit of "
+                    "2048 MB (raise it with --max-input-mb)");
+}
+
 TEST(VolumeIoNrrdErrors, TruncatedRaw) {
   expect_nrrd_error("short.nrrd", make_nrrd(basic_fields("uint16"), kEightBytes + "ab"),
                     "truncated data: expected 16 bytes, got 10");
   expect_nrrd_error("long.nrrd", make_nrrd(basic_fields(), kEightBytes + "x"),
                     "too much data: expected 8 bytes, got 9");
-  // A header claiming gigabytes over a tiny payload fails fast, without allocating them.
+  // A header claiming gigabytes over a tiny payload fails fast, without allocating them:
+  // past --max-input-mb from the header, and within a raised limit at the payload's end.
+  expect_nrrd_error("over8gb.nrrd",
+                    make_nrrd(with(basic_fields("double"), "sizes: 1000 1000 1000"), kEightBytes),
+                    "1000 x 1000 x 1000 double samples take 7630 MB decoded");
+  InputLimits& limits = input_limits();
+  const InputLimits saved = limits;
+  limits.max_input_mb = 8000;
   expect_nrrd_error("claims8gb.nrrd",
                     make_nrrd(with(basic_fields("double"), "sizes: 1000 1000 1000"), kEightBytes),
                     "truncated data: expected 8000000000 bytes, got 8");
@@ -216,6 +241,7 @@ TEST(VolumeIoNrrdErrors, TruncatedRaw) {
       "claims8gb_gz.nrrd",
       make_nrrd(with(basic_fields("double", "gzip"), "sizes: 1000 1000 1000"), gzip(kEightBytes)),
       "truncated data: expected 8000000000 bytes, got 8");
+  limits = saved;
 }
 
 TEST(VolumeIoNrrdErrors, TruncatedGzip) {

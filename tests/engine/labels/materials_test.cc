@@ -224,6 +224,39 @@ TEST(Materials, AFileThatCannotBeReadIsNamed) {
                 "floating-point 'poisson_ratio'");
 }
 
+TEST(Materials, NestingPastTheDepthLimitIsRefusedBeforeTomlReadsIt) {
+  // A header of 30,000 dotted key parts (60 kB) overflowed the stack inside toml++.
+  std::string dotted = "[a";
+  for (int i = 0; i < 30000; ++i) dotted += ".a";
+  EXPECT_EQ(input_error_of([&] { parse_materials(kMaterial1 + dotted + "]\n", "m.toml"); }),
+            "m.toml:5: nests 30002 levels deep (tables, dotted keys, arrays and inline tables), "
+            "over the limit of 64");
+  const std::string arrays = "x = " + std::string(65, '[') + std::string(65, ']') + "\n";
+  EXPECT_EQ(input_error_of([&] { parse_materials(arrays, "m.toml"); }),
+            "m.toml:1: nests 65 levels deep (tables, dotted keys, arrays and inline tables), "
+            "over the limit of 64");
+  // Dots in strings and comments are no keys; numbers count, and stay far from the limit.
+  std::string dots;
+  for (int i = 0; i < 100; ++i) dots += "a.";
+  const std::string quiet =
+      std::string(kMaterial1) + "name = '" + dots + "'  # " + dots + "\nintensity = [1.5, 2.5]\n";
+  EXPECT_EQ(parse_materials(quiet, "m.toml").materials.front().name, dots);
+}
+
+TEST(Materials, ManyMaterialsParseInLinearTime) {
+  // The duplicate check searched the materials so far: 200,000 took 97 s. Not timed (a
+  // test is no benchmark); 100,000 labels with the last one repeated names both lines.
+  std::string text;
+  for (int label = 1; label <= 100000; ++label) {
+    text += "[[material]]\nlabel = " + std::to_string(label) +
+            "\nyoungs_modulus_pa = 1e6\npoisson_ratio = 0.3\n";
+  }
+  EXPECT_EQ(parse_materials(text, "m.toml").materials.size(), 100000u);
+  text += "[[material]]\nlabel = 100000\nyoungs_modulus_pa = 1e6\npoisson_ratio = 0.3\n";
+  EXPECT_EQ(input_error_of([&] { parse_materials(text, "m.toml"); }),
+            "m.toml:400002: label 100000 is given twice (first at line 399997)");
+}
+
 // ---- the bundled four-spheres file ------------------------------------------------------
 
 TEST(FourSpheresMaterials, GiveEachSphereItsFig5Modulus) {
