@@ -198,7 +198,7 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       haptics::RealtimeOptions options = realtime_options(f);
       // Ctrl-C or SIGTERM ends any realtime run after the tick under way, and the session
       // is finished with every tick it ran.
-      end_session_on_signals();
+      const StopOnSignals stop_on_signals;
       options.stop = stop_request();
       options.background_in_lockstep = paced;
       if (recorder) {

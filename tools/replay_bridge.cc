@@ -117,6 +117,17 @@ std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
 
 const std::atomic<bool>* stop_request() { return &g_stop_requested; }
 
+StopOnSignals::StopOnSignals() {
+  g_stop_requested.store(false);
+  interrupt_ = std::signal(SIGINT, request_stop);
+  terminate_ = std::signal(SIGTERM, request_stop);
+}
+
+StopOnSignals::~StopOnSignals() {
+  if (interrupt_ != SIG_ERR) std::signal(SIGINT, interrupt_);
+  if (terminate_ != SIG_ERR) std::signal(SIGTERM, terminate_);
+}
+
 void end_session_on_signals() {
   // Ctrl-C or a kill ends the session after the tick under way; the file keeps every tick.
   std::signal(SIGINT, request_stop);

@@ -144,6 +144,21 @@ std::unique_ptr<haptics::BridgeDevice> make_bridge_device(
 const std::atomic<bool>* stop_request();
 /// Ctrl-C and SIGTERM set stop_request() (a live session then ends cleanly, its files whole).
 void end_session_on_signals();
+
+/// For one realtime run: clears stop_request(), makes Ctrl-C and SIGTERM set it, and puts
+/// back the handlers it found when it goes (hapvox as a library, e.g. in Python, keeps its
+/// application's own handlers between runs).
+class StopOnSignals {
+ public:
+  StopOnSignals();
+  ~StopOnSignals();
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+
+ private:
+  void (*interrupt_)(int);
+  void (*terminate_)(int);
+};
 void write_bridge_attributes(haptics::SessionWriter& session, const haptics::BridgeDevice& device);
 void print_bridge_lines(const haptics::BridgeDevice& device);
 /// The trace a live session's ticks used (t = tick / rate, the device-frame positions), as

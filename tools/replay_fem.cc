@@ -198,7 +198,7 @@ ReplayResult run_fem_replay(const ReplayFlags& f, const std::string& command_lin
         realtime.render_loop = recorder->realtime_loop(f.render_fps);
         realtime.scheduler.lock_future_memory = false;  // Mesa maps memory on its threads
       }
-      end_session_on_signals();  // as the voxel model's realtime runs (cmd_replay.cc)
+      const StopOnSignals stop_on_signals;  // as the voxel model's realtime runs (cmd_replay.cc)
       realtime.stop = stop_request();
       if (windowed) {
         // Paced in lockstep (a FEM step after every fem_every_ticks-th tick, before the
