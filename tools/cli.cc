@@ -286,40 +286,10 @@ void set_command_line(int argc, char** argv) {
 
 const std::string& command_line() { return command_line_storage(); }
 
-namespace {
-
-// A name the file system cannot hold (a part over NAME_MAX bytes, usually 255) made
-// std::filesystem throw: "internal error: filesystem error", exit 1. Said here, as the path's
-// problem, the path cut short to keep the line's problem in view. The ".partial" every
-// output file is written through first counts.
-void check_name_lengths(const std::string& output) {
-  namespace fs = std::filesystem;
-  const fs::path path(output);
-  const fs::path parent = path.parent_path();
-  const long name_max = pathconf(parent.empty() ? "." : parent.c_str(), _PC_NAME_MAX);
-  const std::size_t limit = name_max > 0 ? static_cast<std::size_t>(name_max) : 255;
-  const auto refuse = [&](const std::string& problem) {
-    throw InputError(printable(output, 120), problem + ", longer than the file system allows (" +
-                                                 std::to_string(limit) + ")");
-  };
-  for (const fs::path& part : parent) {
-    if (part.native().size() > limit) {
-      refuse("a folder name of " + std::to_string(part.native().size()) + " bytes");
-    }
-  }
-  const std::size_t bytes = path.filename().native().size();
-  if (bytes + 8 > limit) {
-    refuse("a file name of " + std::to_string(bytes) + " bytes (" + std::to_string(bytes + 8) +
-           " as NAME.partial, while it is written)");
-  }
-}
-
-}  // namespace
-
 void check_output_path(const std::string& output, const std::string& flag) {
   namespace fs = std::filesystem;
   if (output.empty()) throw InputError(flag, "an output path is required");
-  check_name_lengths(output);
+  engine::io::check_name_lengths(output);
   std::error_code ec;
   const fs::path parent = fs::path(output).parent_path();
   if (!parent.empty() && !fs::is_directory(parent, ec)) {
@@ -409,7 +379,7 @@ std::vector<InputPath> transfer_inputs(const std::string& spec) {
 void check_outputs_spare_inputs(const std::vector<OutputPath>& outputs,
                                 const std::vector<InputPath>& inputs) {
   for (const OutputPath& output : outputs) {
-    if (!output.path.empty()) check_name_lengths(output.path);
+    if (!output.path.empty()) engine::io::check_name_lengths(output.path);
   }
   // One command's outputs, each against the others: the last written would replace the rest.
   for (std::size_t i = 0; i < outputs.size(); ++i) {

@@ -191,6 +191,10 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
   }
   force.write_attributes(session);
 
+  // The bridge, ours or behind a window's device (sculpt --device).
+  const haptics::BridgeDevice* bridged = bridge                   ? bridge.get()
+                                         : f.front_end != nullptr ? f.front_end->bridge
+                                                                  : nullptr;
   haptics::ReplaySummary s;
   try {
     const haptics::ProgressFn progress = progress_bar(f, device);
@@ -225,17 +229,10 @@ ReplayResult run_replay(const ReplayFlags& f, const std::string& command_line) {
       s = haptics::replay_lockstep(force, relaxation.get(), device, f.limits, &session, progress,
                                    &sculpted, recorder ? &render : nullptr);
     }
+    refuse_empty_run(f, s, bridged);  // abandons the session below
   } catch (...) {
     session.abandon();
     throw;
-  }
-  // The bridge, ours or behind a window's device (sculpt --device).
-  const haptics::BridgeDevice* bridged = bridge                   ? bridge.get()
-                                         : f.front_end != nullptr ? f.front_end->bridge
-                                                                  : nullptr;
-  if (s.ticks == 0) {
-    session.abandon();
-    refuse_empty_run(f, s, bridged);
   }
   write_summary_attributes(session, f, s, timing);
   if (bridged != nullptr) write_bridge_attributes(session, *bridged);

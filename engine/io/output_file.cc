@@ -70,14 +70,31 @@ void check_no_partial(const std::string& path, const std::string& partial) {
 
 }  // namespace
 
+void check_name_lengths(const std::string& path, const std::string& suffix) {
+  const fs::path p(path);
+  const fs::path parent = p.parent_path();
+  const long name_max = ::pathconf(parent.empty() ? "." : parent.c_str(), _PC_NAME_MAX);
+  const std::size_t limit = name_max > 0 ? static_cast<std::size_t>(name_max) : 255;
+  const auto refuse = [&](const std::string& problem) {
+    throw InputError(printable(path, 120), problem + ", longer than the file system allows (" +
+                                               std::to_string(limit) + ")");
+  };
+  for (const fs::path& part : parent) {
+    if (part.native().size() > limit) {
+      refuse("a folder name of " + std::to_string(part.native().size()) + " bytes");
+    }
+  }
+  const std::size_t bytes = p.filename().native().size();
+  if (bytes + suffix.size() > limit) {
+    refuse("a file name of " + std::to_string(bytes) + " bytes (" +
+           std::to_string(bytes + suffix.size()) + " as NAME" + suffix + ", while it is written)");
+  }
+}
+
 void check_output_target(const std::string& path, const std::string& suffix) {
   if (path.empty()) throw InputError("output", "an output path is required");
+  check_name_lengths(path, suffix);
   const fs::path p(path);
-  if (p.filename().string().size() + suffix.size() > kMaxFileNameBytes) {
-    throw InputError(path, "file name is too long: at most " +
-                               std::to_string(kMaxFileNameBytes - suffix.size()) +
-                               " bytes (the file is written first as NAME" + suffix + ")");
-  }
   const fs::path parent = p.parent_path();
   std::error_code ec;
   if (!parent.empty() && !fs::is_directory(parent, ec)) {

@@ -17,11 +17,14 @@
 
 namespace hapvox::engine::io {
 
-/// The longest file name the system takes (NAME_MAX on Linux).
-inline constexpr std::size_t kMaxFileNameBytes = 255;
+/// Throws InputError(PATH, "a file name of N bytes (...), longer than the file system allows
+/// (255)") when a folder of `path`, or its file name with `suffix` (it is written first as
+/// NAME + suffix), is longer than the file system's NAME_MAX: std::filesystem would throw
+/// instead. The path is cut short in the message. Touches nothing.
+void check_name_lengths(const std::string& path, const std::string& suffix = ".partial");
 
 /// Throws InputError(path, ...) unless `path` may be written as an output: a name (not
-/// empty, its last part at most kMaxFileNameBytes with `suffix`) in an existing directory,
+/// empty, check_name_lengths) in an existing directory,
 /// naming nothing or a regular file, with no file at PATH + suffix (a run writing it, or a
 /// killed run's leftovers). Touches nothing.
 void check_output_target(const std::string& path, const std::string& suffix = ".partial");
