@@ -40,5 +40,4 @@ std::vector<float> dense_floats(const DensityField& field);
 /// that insist on gzip), else a zlib one (MetaImage's CompressedData).
 std::vector<unsigned char> deflate_bytes(const void* data, std::size_t size, bool gzip);
 
-/// One piece of a file to write.
 }  // namespace hapvox::engine::io
