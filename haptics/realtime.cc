@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "engine/check.h"
+#include "haptics/elapsed_ns.h"
 #include "haptics/scheduler.h"
 #include "haptics/spsc_ring.h"
 
@@ -25,10 +26,6 @@ namespace hapvox::haptics {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::int64_t ns_between(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count();
-}
 
 long involuntary_switches() {
   rusage usage{};

@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "engine/check.h"
+#include "haptics/elapsed_ns.h"
 #include "haptics/scheduler.h"
 
 namespace hapvox::haptics {
@@ -17,10 +18,6 @@ engine::ToolForceState make_force_state(const engine::ToolForceModel& model,
   if (buffers == nullptr) return model.make_state();
   HAPVOX_CHECK(&model.field() == &buffers->buffer(0));
   return model.make_state(buffers->buffer(1));
-}
-
-std::int64_t ns_between(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count();
 }
 
 }  // namespace

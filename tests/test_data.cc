@@ -49,6 +49,10 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
+void write_file(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
 CommandResult run_hapvox(const std::string& args) { return run_hapvox_env("", args); }
 
 CommandResult run_hapvox_env(const std::string& environment, const std::string& args) {

@@ -15,6 +15,8 @@ std::string hapvox_binary();
 std::string scratch_dir();
 /// The bytes of a file ("" when it cannot be read).
 std::string read_file(const std::string& path);
+/// Writes `bytes` to `path`, replacing what was there.
+void write_file(const std::string& path, const std::string& bytes);
 
 /// What a run of the hapvox executable printed and returned.
 struct CommandResult {

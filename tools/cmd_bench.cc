@@ -46,7 +46,7 @@ double seed_force_rate_hz(int size, int diameter) {
   return it == table.end() ? NAN : it->second;
 }
 
-struct Row {
+struct TableRow {
   int size, diameter, samples;
   double ours_hz, naive_hz;
 };
@@ -65,7 +65,7 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
   std::printf("tool pressed 1/4 diameter into a half-filled block of 1 mm voxels\n\n");
   std::printf("%7s %9s %8s %12s %12s %8s %10s %9s\n", "volume", "diameter", "samples", "ours Hz",
               "naive Hz", "ours/naive", "seed Hz", "ours/seed");
-  std::vector<Row> rows;
+  std::vector<TableRow> rows;
   for (int n : sizes) {
     const engine::DensityField field = make_half_block(n);
     for (int d : diameters) {
@@ -103,8 +103,8 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
         }
       };
       auto median_ns = measure({{"ours", ours}, {"naive", naive}});
-      Row row{n, d, model.surface_sample_count(), 1e9 / median_ns["ours"],
-              1e9 / median_ns["naive"]};
+      TableRow row{n, d, model.surface_sample_count(), 1e9 / median_ns["ours"],
+                   1e9 / median_ns["naive"]};
       const double seed = seed_force_rate_hz(n, d);
       std::printf("%6d^3 %9d %8d %12.0f %12.0f %9.1fx %10.0f %8.1fx\n", n, d, row.samples,
                   row.ours_hz, row.naive_hz, row.ours_hz / row.naive_hz, seed, row.ours_hz / seed);
@@ -113,7 +113,7 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
     }
   }
   std::vector<Table1Row> table;
-  for (const Row& row : rows) {
+  for (const TableRow& row : rows) {
     table.push_back({"force", row.size, row.diameter, "Hz", row.ours_hz, row.naive_hz,
                      seed_force_rate_hz(row.size, row.diameter),
                      std::to_string(row.samples) + " surface samples"});
@@ -121,7 +121,7 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
   if (!f.csv.empty()) {
     std::ostringstream out;
     out << "volume,diameter_voxels,surface_samples,ours_hz,naive_hz,seed_hz\n";
-    for (const Row& row : rows) {
+    for (const TableRow& row : rows) {
       out << row.size << "," << row.diameter << "," << row.samples << "," << row.ours_hz << ","
           << row.naive_hz << "," << seed_force_rate_hz(row.size, row.diameter) << "\n";
     }

@@ -39,7 +39,7 @@ struct BenchRenderFlags {
   std::string csv;
 };
 
-struct Row {
+struct RenderBenchRow {
   std::string volume, method;
   int size = 0;
   double fps = 0, frame_ms = 0, draw_ms = 0;
@@ -76,10 +76,10 @@ Eigen::VectorXd bench_grab(const engine::fem::TetMesh& mesh, const Eigen::Vector
 
 // Times f.frames frames of one renderer and settings (median, after a warm-up frame that
 // sizes buffers and compiles shaders), scores the last against the reference, prints the row.
-Row measure_row(render::VolumeRenderer& renderer, const render::OrbitCamera& camera,
-                const render::ToolPose& tool, const render::RenderSettings& settings,
-                const render::Image& reference, int frames, const std::string& volume,
-                const std::string& method) {
+RenderBenchRow measure_row(render::VolumeRenderer& renderer, const render::OrbitCamera& camera,
+                           const render::ToolPose& tool, const render::RenderSettings& settings,
+                           const render::Image& reference, int frames, const std::string& volume,
+                           const std::string& method) {
   std::vector<double> frame_ms, draw_ms;
   render::Image image;
   render::FrameStats stats;
@@ -91,7 +91,7 @@ Row measure_row(render::VolumeRenderer& renderer, const render::OrbitCamera& cam
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     draw_ms.push_back(stats.draw_ms);
   }
-  Row row;
+  RenderBenchRow row;
   row.volume = volume;
   row.method = method;
   row.size = settings.width;
@@ -143,7 +143,7 @@ void run_bench_render(const BenchRenderFlags& f) {
               f.frames);
   std::printf("%-40s %5s %-30s %8s %9s %9s %9s %8s\n", "volume", "size", "method", "fps",
               "frame ms", "draw ms", "vertices", "PSNR dB");
-  std::vector<Row> rows;
+  std::vector<RenderBenchRow> rows;
   for (const std::string& spec : split_list(f.volumes)) {
     // The bundled volume is found wherever hapvox runs from (the default names it).
     const std::string path = find_bundled(spec);
@@ -187,8 +187,8 @@ void run_bench_render(const BenchRenderFlags& f) {
             {"naive: 500 x 20x20, Eq. 10", naive}}) {
         rows.push_back(measure_row(renderer, camera, tool, settings, ref, f.frames, spec, method));
       }
-      const Row& a = rows[rows.size() - 2];
-      const Row& b = rows.back();
+      const RenderBenchRow& a = rows[rows.size() - 2];
+      const RenderBenchRow& b = rows.back();
       std::printf("%-40s %5d %-30s %7.1fx\n", "", size, "ours / naive", a.fps / b.fps);
     }
     // The proxy-FEM model: the same slices over the resampled texture, no FFD.
@@ -263,18 +263,20 @@ void run_bench_render(const BenchRenderFlags& f) {
       render::RenderSettings reference = ours;
       reference.mesh.slices = 500;
       const render::Image ref = deformed.render(camera, grab, reference);
-      const Row row = measure_row(deformed, camera, grab, ours, ref, f.frames, spec,
-                                  "fem: resampled, " + std::to_string(f.slices) + " slices");
+      const RenderBenchRow row =
+          measure_row(deformed, camera, grab, ours, ref, f.frames, spec,
+                      "fem: resampled, " + std::to_string(f.slices) + " slices");
       // Against the voxel model's row at this size ("ours"), in the same run.
-      const auto voxel = std::find_if(rows.begin(), rows.end(), [&](const Row& r) {
+      const auto voxel = std::find_if(rows.begin(), rows.end(), [&](const RenderBenchRow& r) {
         return r.volume == spec && r.size == size && r.method.rfind("ours", 0) == 0;
       });
       std::printf("%-40s %5d %-30s %7.0f%%\n", "", size, "fem / voxel fps",
                   100.0 * row.fps / voxel->fps);
       std::fflush(stdout);
       rows.push_back(row);
-      const Row slices_row = measure_row(hybrid, camera, grab, ours, ref, f.frames, spec,
-                                         "fem: block hybrid, " + std::to_string(f.slices) + " sl");
+      const RenderBenchRow slices_row =
+          measure_row(hybrid, camera, grab, ours, ref, f.frames, spec,
+                      "fem: block hybrid, " + std::to_string(f.slices) + " sl");
       rows.push_back(slices_row);
       // A new displacement every frame (the realtime case): the resample or the hybrid's
       // preparation, then a frame.
@@ -296,7 +298,7 @@ void run_bench_render(const BenchRenderFlags& f) {
   if (!f.csv.empty()) {
     std::ostringstream out;
     out << "volume,size,method,fps,frame_ms,draw_ms,vertices,psnr_db\n";
-    for (const Row& r : rows) {
+    for (const RenderBenchRow& r : rows) {
       out << '"' << r.volume << "\"," << r.size << ",\"" << r.method << "\"," << r.fps << ','
           << r.frame_ms << ',' << r.draw_ms << ',' << r.vertices << ',' << r.psnr_db << '\n';
     }

@@ -38,13 +38,14 @@ double hertz_force_n(double e_pa, double nu, double r_mm, double d_mm) {
   return 4.0 / 3.0 * e_pa / (1.0 - nu * nu) * std::sqrt(r_mm) * std::pow(d_mm, 1.5) * 1e-6;
 }
 
-struct Row {
+struct ValidateRow {
   double depth_mm, hertz_law_n, paper_law_n, hertz_n;
 };
 
 // A slow vertical press (2 um a tick) into a block of voxel size h whose nominal surface
 // is a voxel face, at an xy off the lattice, with both contact laws.
-std::vector<Row> press(double r_mm, double h_mm, double nu, double e_pa, double max_depth_mm) {
+std::vector<ValidateRow> press(double r_mm, double h_mm, double nu, double e_pa,
+                               double max_depth_mm) {
   const double footprint_mm = 2.0 * std::sqrt(2.0 * r_mm * max_depth_mm) + 4.0 * h_mm + 2.0;
   const int n = static_cast<int>(std::ceil(footprint_mm / h_mm)) + 2;
   const int top_k = static_cast<int>(std::ceil((max_depth_mm + 2.0) / h_mm)) + 2;
@@ -66,7 +67,7 @@ std::vector<Row> press(double r_mm, double h_mm, double nu, double e_pa, double 
   const double face_z = (top_k - 0.5) * h_mm;
   const engine::Vec3d xy(0.5 * (n - 1) * h_mm + 0.37 * h_mm, 0.5 * (n - 1) * h_mm - 0.21 * h_mm,
                          0.0);
-  std::vector<Row> rows;
+  std::vector<ValidateRow> rows;
   for (double depth = -h_mm; depth <= max_depth_mm; depth += 0.002) {
     const engine::Vec3d x = xy + engine::Vec3d(0, 0, face_z + r_mm - depth);
     hertz.step(x, hertz_state);
@@ -114,11 +115,12 @@ bool run_validate_hertz(const ValidateFlags& f) {
   for (double r : radii) {
     for (double nu : ratios) {
       for (double h : voxels) {
-        const std::vector<Row> rows = press(r, h, nu, f.youngs_modulus_pa, f.max_depth_ratio * r);
+        const std::vector<ValidateRow> rows =
+            press(r, h, nu, f.youngs_modulus_pa, f.max_depth_ratio * r);
         double worst = 0.0, mx = 0, my = 0;
         std::vector<std::pair<double, double>> logs;
         const double lo = std::max(0.02 * r, h), hi = 0.15 * r;
-        for (const Row& row : rows) {
+        for (const ValidateRow& row : rows) {
           char line[160];
           std::snprintf(line, sizeof line, "%g,%g,%g,%.4f,%.6g,%.6g,%.6g\n", r, nu, h, row.depth_mm,
                         row.hertz_law_n, row.paper_law_n, row.hertz_n);

@@ -54,7 +54,7 @@ struct MetaHeader {
 
 // Header lines are "Key = Value"; ElementDataFile ends the header. A line longer than any
 // header line, or a byte no text has, means this is not a MetaImage header.
-MetaHeader read_header(std::istream& in, const std::string& path) {
+MetaHeader read_meta_header(std::istream& in, const std::string& path) {
   constexpr std::size_t kMaxLine = 4096;
   constexpr int kMaxLines = 1000;
   MetaHeader header;
@@ -172,13 +172,13 @@ DataSource data_source(const MetaHeader& header, const std::string& path) {
 std::string metaimage_data_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");
-  return data_source(read_header(in, path), path).file;
+  return data_source(read_meta_header(in, path), path).file;
 }
 
 RawVolume read_metaimage(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");
-  const MetaHeader header = read_header(in, path);
+  const MetaHeader header = read_meta_header(in, path);
 
   if (const std::string* type = find(header, "objecttype"); type && lower(*type) != "image") {
     throw InputError(path, "ObjectType '" + printable(*type, 40) + "' is not an Image");

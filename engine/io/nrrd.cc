@@ -38,7 +38,7 @@ struct NrrdHeader {
   std::streampos data_start = 0;              // stream position just after the header
 };
 
-NrrdHeader read_header(std::istream& in, const std::string& path) {
+NrrdHeader read_nrrd_header(std::istream& in, const std::string& path) {
   NrrdHeader header;
   // Check the magic before any getline so a large binary file is not slurped as one line.
   char magic[8] = {};
@@ -148,7 +148,7 @@ std::vector<std::string> split_vectors(const std::string& text) {
 std::string nrrd_data_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");
-  const NrrdHeader header = read_header(in, path);
+  const NrrdHeader header = read_nrrd_header(in, path);
   const std::string* data_file = find_field(header, "data file");
   if (data_file == nullptr || data_file->rfind("LIST", 0) == 0 ||
       data_file->find('%') != std::string::npos || split_ws(*data_file).size() != 1) {
@@ -161,7 +161,7 @@ std::string nrrd_data_file(const std::string& path) {
 RawVolume read_nrrd(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in || fs::is_directory(path)) throw InputError(path, "cannot open file");
-  const NrrdHeader header = read_header(in, path);
+  const NrrdHeader header = read_nrrd_header(in, path);
 
   const std::string type_text = lower(require_field(header, "type", path));
   const std::string type_norm = [&] {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "engine/block_field.h"
@@ -12,8 +13,6 @@
 
 namespace hapvox::engine {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // A block of voxel size h_mm with room above its face.
 DensityField make_block(int n, int top_k, double h_mm) {

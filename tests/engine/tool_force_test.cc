@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <numbers>
 #include <random>
 
 #include "engine/block_field.h"
@@ -11,8 +12,6 @@
 
 namespace hapvox::engine {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 using fixtures::make_block;
 
@@ -42,7 +41,8 @@ ToolForceOptions options_for(double diameter_mm, double e_pa = 200e3, double nu 
 // trilinear sampling of voxel size h.
 double closed_form_block_force_n(const ToolForceModel& model, double depth_mm, double h_mm) {
   const double r = model.tool_radius_mm();
-  const double area = kPi * (2.0 * r * depth_mm - depth_mm * depth_mm - h_mm * h_mm / 12.0);
+  const double area =
+      std::numbers::pi * (2.0 * r * depth_mm - depth_mm * depth_mm - h_mm * h_mm / 12.0);
   const double strain = depth_mm / model.fixed_reference_length_mm();
   return (model.lame().lambda_pa + 2.0 * model.lame().mu_pa) * strain * area * 1e-6;
 }
@@ -141,7 +141,7 @@ TEST(ToolForce, PointsOutOfTheMaterial) {
     }
     ASSERT_GT(state.force_n.norm(), 0.0);
     const double cos_angle = state.force_n.normalized().dot(dir);
-    EXPECT_GT(cos_angle, std::cos(2.0 * kPi / 180.0)) << "trial " << trial;
+    EXPECT_GT(cos_angle, std::cos(2.0 * std::numbers::pi / 180.0)) << "trial " << trial;
   }
 }
 
@@ -403,7 +403,7 @@ TEST(ToolForce, ATurnedGridGivesTheTurnedForce) {
   ASSERT_GT(a.force_n.norm(), 0.0);
   EXPECT_NEAR(b.force_n.norm(), a.force_n.norm(), 0.01 * a.force_n.norm());
   const double cos_angle = b.force_n.normalized().dot(turn * Vec3d::UnitZ());
-  EXPECT_GT(cos_angle, std::cos(1.0 * kPi / 180.0));
+  EXPECT_GT(cos_angle, std::cos(1.0 * std::numbers::pi / 180.0));
 }
 
 }  // namespace

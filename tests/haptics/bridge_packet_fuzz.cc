@@ -38,7 +38,7 @@ void check_round_trip(const std::uint8_t* data, std::size_t size, const Packet& 
   if (compare && std::memcmp(again.data(), data, size) != 0) std::abort();
 }
 
-int fuzz_one_input(const std::uint8_t* data, std::size_t size) {
+int fuzz_bridge_packet(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   // A copy of exactly the datagram's bytes: ASan sees any read past its end.
   const std::vector<std::uint8_t> datagram(data + 1, data + size);
@@ -68,10 +68,10 @@ int fuzz_one_input(const std::uint8_t* data, std::size_t size) {
 
 }  // namespace
 
-// haptics_tests holds trace_fuzz's entry point too; there the test calls fuzz_one_input.
+// haptics_tests holds trace_fuzz's entry point too; there the test calls fuzz_bridge_packet.
 #ifndef HAPVOX_FUZZ_REPLAY
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  return fuzz_one_input(data, size);
+  return fuzz_bridge_packet(data, size);
 }
 #endif
 
@@ -128,7 +128,7 @@ TEST(BridgeFuzz, MutationsOfPacketsParseOrAreCountedErrors) {
         EXPECT_EQ(body, seeds[s]) << i;
       }
     }
-    fuzz_one_input(bytes, input.size());
+    fuzz_bridge_packet(bytes, input.size());
   }
   // Both outcomes occur: flips inside the numbers are accepted, length and header changes
   // refused; keyed, only the seeds themselves are taken, and flips are refused for their tag.

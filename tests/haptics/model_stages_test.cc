@@ -64,9 +64,9 @@ class PlaneSpring final : public ForceStage {
   std::uint64_t onsets_ = 0;
 };
 
-class Recorder final : public BackgroundStage {
+class RecordingStage final : public BackgroundStage {
  public:
-  explicit Recorder(std::vector<std::string>* calls) : calls_(calls) {}
+  explicit RecordingStage(std::vector<std::string>* calls) : calls_(calls) {}
   void begin() override {
     if (calls_ != nullptr) calls_->push_back("begin");
   }
@@ -122,7 +122,7 @@ TEST(ModelStages, LockstepRunsAnyModelInTheDocumentedOrder) {
   const std::size_t nan_tick = 150;
   PlaneSpring spring(nan_tick);
   spring.record_calls = true;
-  Recorder background(&spring.calls);
+  RecordingStage background(&spring.calls);
   const std::string path = testing::scratch_dir() + "/spring.h5";
   SessionWriter session(path);
   SculptSummary sculpted;
@@ -163,7 +163,7 @@ TEST(ModelStages, RealtimeRunsAnyModelWithItsBackgroundThread) {
   TraceDevice device = press_through_plane();
   const std::size_t nan_tick = 150;
   PlaneSpring spring(nan_tick);
-  Recorder background(nullptr);
+  RecordingStage background(nullptr);
   const std::string path = testing::scratch_dir() + "/spring_rt.h5";
   SessionWriter session(path);
   SculptSummary sculpted;

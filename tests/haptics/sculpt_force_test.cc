@@ -8,6 +8,7 @@
 #include <complex>
 #include <cstdio>
 #include <memory>
+#include <numbers>
 #include <vector>
 
 #include "engine/relax.h"
@@ -19,8 +20,6 @@
 
 namespace hapvox::haptics {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct SculptTicks {
   std::vector<double> time_s;
@@ -102,7 +101,8 @@ TEST(SculptForce, PressAndReleaseFlowsOnlyOnTheWayDownAndNeverPullsTheToolIn) {
 double amplitude_at(const std::vector<double>& x, double f_hz, double rate_hz) {
   std::complex<double> sum = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) {
-    sum += x[i] * std::polar(1.0, -2.0 * kPi * f_hz * static_cast<double>(i) / rate_hz);
+    sum +=
+        x[i] * std::polar(1.0, -2.0 * std::numbers::pi * f_hz * static_cast<double>(i) / rate_hz);
   }
   return 2.0 * std::abs(sum) / static_cast<double>(x.size());
 }

@@ -18,7 +18,7 @@
 
 namespace {
 
-int fuzz_one_input(const std::uint8_t* data, std::size_t size) {
+int fuzz_sweep_manifest(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   const std::string source = "fuzz.toml";
   try {
@@ -45,7 +45,7 @@ int fuzz_one_input(const std::uint8_t* data, std::size_t size) {
 
 #ifndef HAPVOX_FUZZ_REPLAY
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  return fuzz_one_input(data, size);
+  return fuzz_sweep_manifest(data, size);
 }
 #endif
 
@@ -84,7 +84,7 @@ TEST(SweepManifestFuzz, MutationsOfAManifestParseOrGiveOneLineErrors) {
     } catch (const hapvox::InputError&) {
       ++rejected;
     }
-    fuzz_one_input(reinterpret_cast<const std::uint8_t*>(input.data()), input.size());
+    fuzz_sweep_manifest(reinterpret_cast<const std::uint8_t*>(input.data()), input.size());
   }
   EXPECT_GT(parsed, 100);
   EXPECT_GT(rejected, 1000);

@@ -18,8 +18,6 @@ namespace {
 using ::hapvox::testing::input_error_of;
 using ::hapvox::testing::scratch_dir;
 
-constexpr double kPi = std::numbers::pi;
-
 // As HAPI::DeviceLog writes with logData "ALL" minus the RAW_ fields: fixed, 5 decimals,
 // metres, axis-angle orientations.
 const char kLog[] =
@@ -123,8 +121,9 @@ TEST(TraceOrientation, ResamplingTurnsAlongTheShorterArc) {
   trace.time_s = {0.0, 1.0};
   trace.position_mm = {Vec3d::Zero(), Vec3d(10, 0, 0)};
   // A quarter turn about z, written with the opposite sign: the same rotation.
-  trace.orientation = {Eigen::Quaterniond::Identity(),
-                       Eigen::Quaterniond(-std::cos(kPi / 4), 0, 0, -std::sin(kPi / 4))};
+  trace.orientation = {
+      Eigen::Quaterniond::Identity(),
+      Eigen::Quaterniond(-std::cos(std::numbers::pi / 4), 0, 0, -std::sin(std::numbers::pi / 4))};
   ResampleOptions options;
   options.rate_hz = 4.0;
   options.max_gap_s = 2.0;  // one step of 1 s, not a gap
@@ -133,12 +132,13 @@ TEST(TraceOrientation, ResamplingTurnsAlongTheShorterArc) {
   for (std::size_t k = 0; k < 5; ++k) {
     // At tick k the turn is k/4 of 90 degrees, never the long way round.
     EXPECT_NEAR(r.orientation[k].angularDistance(Eigen::Quaterniond::Identity()),
-                kPi / 2 * static_cast<double>(k) / 4.0, 1e-12)
+                std::numbers::pi / 2 * static_cast<double>(k) / 4.0, 1e-12)
         << k;
   }
-  EXPECT_NEAR(
-      (r.orientation[2] * Vec3d::UnitX() - Vec3d(std::cos(kPi / 4), std::sin(kPi / 4), 0)).norm(),
-      0.0, 1e-12);
+  EXPECT_NEAR((r.orientation[2] * Vec3d::UnitX() -
+               Vec3d(std::cos(std::numbers::pi / 4), std::sin(std::numbers::pi / 4), 0))
+                  .norm(),
+              0.0, 1e-12);
 }
 
 }  // namespace

@@ -12,7 +12,7 @@ namespace hapvox::haptics {
 namespace {
 
 // A device that remembers what the loop did with it.
-class Recorder final : public Device {
+class RecordingDevice final : public Device {
  public:
   double rate_hz() const override { return 500.0; }
   std::size_t tick_count() const override { return 7; }
@@ -38,7 +38,7 @@ class Recorder final : public Device {
 };
 
 TEST(ObservedDevice, PassesEveryCallOnAndGivesBackWhatWasSent) {
-  Recorder inner;
+  RecordingDevice inner;
   ObservedDevice device(inner);
   EXPECT_EQ(device.rate_hz(), 500.0);
   EXPECT_EQ(device.tick_count(), 7u);

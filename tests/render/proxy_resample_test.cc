@@ -10,7 +10,7 @@
 #include <memory>
 
 #include "engine/volume_io.h"
-#include "render/gl_context.h"
+#include "render/suite_gl_context.h"
 #include "render/tet_slicer.h"
 #include "render/volume_renderer.h"
 
@@ -19,11 +19,6 @@ namespace {
 
 using Eigen::Vector3d;
 using engine::fem::TetMesh;
-
-GlContext& context() {
-  static GlContext gl;
-  return gl;
-}
 
 // A cubic field of `n`^3 voxels of 1 mm with densities `rho` at voxel centres (world mm).
 engine::DensityField field_of(int n, const std::function<double(const Vector3d&)>& rho) {
@@ -256,7 +251,7 @@ OrbitCamera camera_at(const Scene& scene, double azimuth_deg) {
 // A renderer of the scene with its texels resampled for displacement `u`.
 std::unique_ptr<VolumeRenderer> deformed(const Scene& scene, const ResampleOptions& options,
                                          const Eigen::VectorXd& u) {
-  context();
+  suite_gl_context();
   auto renderer =
       std::make_unique<VolumeRenderer>(scene.field, TransferFunction::from_spec("clay"));
   ProxyResampler resampler(scene.dense, options);
@@ -268,7 +263,7 @@ std::unique_ptr<VolumeRenderer> deformed(const Scene& scene, const ResampleOptio
 
 TEST(ProxyRender, AnUndeformedResampleDrawsWhatTodaysRendererDraws) {
   const Scene scene(32);
-  context();
+  suite_gl_context();
   VolumeRenderer plain(scene.field, TransferFunction::from_spec("clay"));
   ResampleOptions options;
   options.motion_threshold_voxels = -1.0;  // every tet resampled
@@ -283,7 +278,7 @@ TEST(ProxyRender, AnUndeformedResampleDrawsWhatTodaysRendererDraws) {
 // tets sliced elsewhere, over the rest texels.
 std::unique_ptr<VolumeRenderer> sliced(const Scene& scene, const Eigen::VectorXd& u,
                                        TetSlicer& slicer, TetSliceStats& stats) {
-  context();
+  suite_gl_context();
   auto renderer =
       std::make_unique<VolumeRenderer>(scene.field, TransferFunction::from_spec("clay"));
   slicer.set_mesh(scene.mesh);
@@ -296,7 +291,7 @@ std::unique_ptr<VolumeRenderer> sliced(const Scene& scene, const Eigen::VectorXd
 
 TEST(TetSlicer, AtRestTheBlocksPlainPolygonsDrawTodaysImage) {
   const Scene scene(32);
-  context();
+  suite_gl_context();
   VolumeRenderer plain(scene.field, TransferFunction::from_spec("clay"));
   TetSlicer slicer(scene.field.world_min_mm(), scene.field.world_max_mm(), scene.field.dims(), 8);
   TetSliceStats stats;
@@ -379,7 +374,7 @@ TEST(ProxyRender, AnAffineDeformationMatchesAnAnalyticResample) {
     }
     return value;
   });
-  context();
+  suite_gl_context();
   VolumeRenderer reference(analytic, TransferFunction::from_spec("clay"));
   const Views v;
   const Image expected = render_with(reference, camera_at(scene, 30), v.settings);
@@ -398,7 +393,7 @@ TEST(ProxyRender, AnAffineDeformationMatchesAnAnalyticResample) {
 // still seen from where the camera was: shading turns with the material.
 TEST(ProxyRender, ARigidQuarterTurnSeenFromATurnedCameraIsTheStill) {
   const Scene scene(32);
-  context();
+  suite_gl_context();
   VolumeRenderer still(scene.field, TransferFunction::from_spec("clay"));
   const Eigen::Matrix3d r = Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitZ()).toRotationMatrix();
   const auto turned = deformed(scene, {}, affine(scene.mesh, r, scene.centre(), Vector3d::Zero()));

@@ -9,19 +9,13 @@
 
 #include "engine/relax.h"
 #include "engine/volume_io.h"
-#include "render/gl_context.h"
+#include "render/suite_gl_context.h"
 #include "test_data.h"
 
 namespace hapvox::render {
 namespace {
 
 using Eigen::Vector3d;
-
-// One context for the whole suite: EGL displays are process-wide anyway.
-GlContext& context() {
-  static GlContext gl;
-  return gl;
-}
 
 bool is_background(const Image& image, int x, int y, const RenderSettings& s) {
   const std::uint8_t* p = image.pixel(x, y);
@@ -66,7 +60,8 @@ const engine::DensityField& engine_ct() {
 
 // The bundled engine CT, bone preset, 256 x 256, from the default angles.
 struct EngineView {
-  VolumeRenderer renderer{(context(), engine_ct()), TransferFunction::from_spec("ct-bone")};
+  VolumeRenderer renderer{(suite_gl_context(), engine_ct()),
+                          TransferFunction::from_spec("ct-bone")};
   RenderSettings settings = [] {
     RenderSettings s;
     s.width = s.height = 256;
@@ -157,7 +152,7 @@ void expect_press_is_local(VolumeRenderer& renderer, const OrbitCamera& camera,
 }
 
 TEST(VolumeRenderer, AnElasticPressDisplacesTheImageNearTheToolAndNowhereFar) {
-  context();
+  suite_gl_context();
   BlockScene scene;
   VolumeRenderer renderer(scene.field, TransferFunction::from_spec("clay"));
   expect_press_is_local(renderer, scene.camera, scene.settings, scene.tool);
@@ -180,7 +175,7 @@ TEST(VolumeRenderer, AnElasticPressOnTheEngineShowsWhereTheToolPressesOnly) {
 }
 
 TEST(VolumeRenderer, PlasticChangesAppearOnceRelaxedAndMatchAFreshUpload) {
-  context();
+  suite_gl_context();
   BlockScene scene;
   VolumeRenderer renderer(scene.field, TransferFunction::from_spec("clay"));
   const Image before = renderer.render(scene.camera, ToolPose{}, scene.settings);

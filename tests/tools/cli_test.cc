@@ -24,9 +24,7 @@ using testing::scratch_dir;
 using testing::source_path;
 using Result = testing::CommandResult;
 
-void write_file(const std::string& path, const std::string& bytes) {
-  std::ofstream(path, std::ios::binary) << bytes;
-}
+using testing::write_file;
 
 // `hapvox ARGS` run in `dir`, so that paths can be given relative to it.
 Result run_in(const std::string& dir, const std::string& args) {

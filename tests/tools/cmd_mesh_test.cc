@@ -27,7 +27,7 @@ using testing::run_hapvox;
 using testing::scratch_dir;
 using testing::source_path;
 
-const char* const kPhantom = "four-spheres:dims=24";
+const char* const kMeshPhantom = "four-spheres:dims=24";
 
 std::string four_spheres_toml() { return source_path("data/four_spheres.toml"); }
 
@@ -68,7 +68,7 @@ long printed(const std::string& out, const std::string& label) {
 TEST(MeshCli, BuildsTheFourSpheresMeshAndReportsWhatItWrote) {
   const std::string dir = scratch_dir();
   const std::string mesh = dir + "/phantom.h5";
-  const auto r = run_hapvox(std::string("mesh ") + kPhantom + " --materials " +
+  const auto r = run_hapvox(std::string("mesh ") + kMeshPhantom + " --materials " +
                             four_spheres_toml() + " -o " + mesh + " --spacing-mm 4.32");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.err, "");
@@ -114,7 +114,7 @@ TEST(MeshCli, SeedsMakeTheLabels) {
   // The volume after the seeds: each --seed takes one value.
   const auto r = run_hapvox("mesh --materials " + materials + " --seed " + std::to_string(c.x()) +
                             "," + std::to_string(c.y()) + "," + std::to_string(c.z()) +
-                            ":5 --seed-tolerance 0.05 " + kPhantom + " -o " + dir + "/out.h5");
+                            ":5 --seed-tolerance 0.05 " + kMeshPhantom + " -o " + dir + "/out.h5");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::vector<double> labels =
       haptics::read_session_column(dir + "/out.h5", "/mesh/tet_label");
@@ -130,7 +130,7 @@ TEST(MeshCli, TheSeededLabelMapIsWrittenAndMeshesTheSame) {
   const std::string materials = write(dir + "/m.toml", materials_text({0, 5}));
   const std::string seed = std::to_string(c.x()) + "," + std::to_string(c.y()) + "," +
                            std::to_string(c.z()) + ":5 --seed-tolerance 0.05 ";
-  const auto r = run_hapvox("mesh --materials " + materials + " --seed " + seed + kPhantom +
+  const auto r = run_hapvox("mesh --materials " + materials + " --seed " + seed + kMeshPhantom +
                             " -o " + dir + "/seeded.h5 --labels-out " + dir + "/seg.nii.gz");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("wrote " + dir + "/seg.nii.gz (the label map the mesh was built from)"),
@@ -151,7 +151,7 @@ TEST(MeshCli, TheSeededLabelMapIsWrittenAndMeshesTheSame) {
   for (int sphere : {2, 3, 4}) EXPECT_EQ(at(phantom.centre_mm(sphere)), 0.0f) << sphere;
 
   const auto again = run_hapvox("mesh --materials " + materials + " --labels " + dir +
-                                "/seg.nii.gz " + kPhantom + " -o " + dir + "/from_file.h5");
+                                "/seg.nii.gz " + kMeshPhantom + " -o " + dir + "/from_file.h5");
   ASSERT_EQ(again.exit_code, 0) << again.err;
   EXPECT_EQ(haptics::read_session_column(dir + "/from_file.h5", "/mesh/tet_label"),
             haptics::read_session_column(dir + "/seeded.h5", "/mesh/tet_label"));
@@ -159,7 +159,7 @@ TEST(MeshCli, TheSeededLabelMapIsWrittenAndMeshesTheSame) {
             haptics::read_session_column(dir + "/seeded.h5", "/mesh/rest_mm"));
 
   // An output it cannot write is refused before anything is meshed or written.
-  const auto bad = run_hapvox("mesh --materials " + materials + " --seed " + seed + kPhantom +
+  const auto bad = run_hapvox("mesh --materials " + materials + " --seed " + seed + kMeshPhantom +
                               " -o " + dir + "/bad.h5 --labels-out " + dir + "/seg.hdr");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_EQ(bad.err, "hapvox: error: " + dir +
@@ -188,7 +188,7 @@ TEST(MeshCli, APickedPixelSeedsTheSphereTheImageShowsThere) {
   const int px = static_cast<int>(0.5 * (clip.x() / clip.w() + 1.0) * size);
   const int py = static_cast<int>(0.5 * (1.0 - clip.y() / clip.w()) * size);
   const std::string materials = write(dir + "/m.toml", materials_text({0, 5}));
-  const auto r = run_hapvox("mesh " + std::string(kPhantom) + " --materials " + materials +
+  const auto r = run_hapvox("mesh " + std::string(kMeshPhantom) + " --materials " + materials +
                             " --pick " + std::to_string(px) + "," + std::to_string(py) +
                             ":5 --pick-size 256 --pick-view 30,25 --seed-tolerance 0.05 -o " + dir +
                             "/out.h5");
@@ -213,7 +213,7 @@ TEST(MeshCli, APickedPixelSeedsTheSphereTheImageShowsThere) {
               0.05 * static_cast<double>(phantom.lattice_count(nearest)));
 
   const std::string base =
-      std::string(kPhantom) + " --materials " + materials + " -o " + dir + "/out2.h5";
+      std::string(kMeshPhantom) + " --materials " + materials + " -o " + dir + "/out2.h5";
   const auto expect_pick_error = [&](const std::string& args, const std::string& expected) {
     const auto bad = run_hapvox("mesh " + base + args);
     EXPECT_EQ(bad.exit_code, 2) << args << "\n" << bad.err;
@@ -240,7 +240,7 @@ TEST(MeshCli, APickedPixelSeedsTheSphereTheImageShowsThere) {
 // labelled from the wrong proxy tet changes a label's volume.
 TEST(MeshCli, TetgenMeshesTheExportedLabelBoundariesAndEveryLabelKeepsItsVolume) {
   const std::string dir = scratch_dir();
-  const auto r = run_hapvox("mesh " + std::string(kPhantom) + " --materials " +
+  const auto r = run_hapvox("mesh " + std::string(kMeshPhantom) + " --materials " +
                             four_spheres_toml() + " --boundary-levels 1 -o " + dir +
                             "/m.h5 --tetgen-out " + dir + "/m --tetgen tetgen");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
@@ -259,8 +259,8 @@ TEST(MeshCli, TetgenMeshesTheExportedLabelBoundariesAndEveryLabelKeepsItsVolume)
   }
   EXPECT_EQ(labels, 5) << r.out;
   // Without the program, or without a place for its files: one line, before any work.
-  const std::string base = "mesh " + std::string(kPhantom) + " --materials " + four_spheres_toml() +
-                           " -o " + dir + "/bad.h5";
+  const std::string base = "mesh " + std::string(kMeshPhantom) + " --materials " +
+                           four_spheres_toml() + " -o " + dir + "/bad.h5";
   const auto missing = run_hapvox(base + " --tetgen-out " + dir + "/bad --tetgen no-such-tetgen");
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_EQ(missing.err,
@@ -277,7 +277,7 @@ TEST(MeshCli, TetgenMeshesTheExportedLabelBoundariesAndEveryLabelKeepsItsVolume)
 TEST(MeshCli, EachBadInputIsOneLineAndExitTwo) {
   const std::string dir = scratch_dir();
   const std::string out = " -o " + dir + "/out.h5";
-  const std::string phantom = std::string(kPhantom);
+  const std::string phantom = std::string(kMeshPhantom);
 
   expect_mesh_error(dir, phantom + out, "--materials is required (see hapvox --help)");
   expect_mesh_error(dir, phantom + " --materials " + dir + "/none.toml" + out,

@@ -34,9 +34,7 @@ using Result = testing::CommandResult;
 
 Result run(const std::string& args) { return testing::run_hapvox(args); }
 
-void write_file(const std::string& path, const std::string& text) {
-  std::ofstream(path, std::ios::binary) << text;
-}
+using testing::write_file;
 
 // A bad-input run: exit 2, exactly one line on stderr, equal to `expected`.
 void expect_input_error(const std::string& args, const std::string& expected) {

@@ -77,9 +77,7 @@ void expect_refused(const std::string& dir, const std::string& args, const std::
   std::printf("bomb %s: %.1f MB, %.2f s\n", file.c_str(), m.max_rss_mb, m.elapsed_s);
 }
 
-void write_file(const std::string& path, const std::string& bytes) {
-  std::ofstream(path, std::ios::binary) << bytes;
-}
+using testing::write_file;
 
 // A NIfTI-1 header (nifti1.h's offsets) of `n`^3 float32 samples, then gzip'd zeros: 300 MB
 // of them, so a reader that inflates before it checks grows past the 256 MB.

@@ -21,7 +21,7 @@ using testing::run_hapvox;
 using testing::scratch_dir;
 using testing::source_path;
 
-const char* const kPhantom = "four-spheres:dims=32";
+const char* const kFemPhantom = "four-spheres:dims=32";
 
 // A pull of `travel_mm` along +x from the white sphere's right side (its left is fixed).
 std::string write_pull_trace(const std::string& dir, double travel_mm) {
@@ -39,7 +39,7 @@ std::string write_pull_trace(const std::string& dir, double travel_mm) {
 }
 
 std::string fem_args(const std::string& trace, const std::string& out) {
-  return "replay " + trace + " --volume " + kPhantom + " --model fem --materials " +
+  return "replay " + trace + " --volume " + kFemPhantom + " --model fem --materials " +
          source_path("data/four_spheres.toml") +
          " --boundary-levels 1 --interaction grab --tool-diameter-mm 6 --ramp-in-s 0"
          " --max-force-n 1000"
@@ -166,8 +166,8 @@ TEST(ReplayFemCli, BadIncisionsAreOneLineAndNoSession) {
     EXPECT_EQ(r.err, "hapvox: error: " + c.error + "\n") << c.args;
     EXPECT_FALSE(fs::exists(dir + "/bad.h5")) << c.args;
   }
-  const auto voxel = run_hapvox("replay " + trace + " --volume " + kPhantom + " --incision " + cut +
-                                " -q -o " + dir + "/bad.h5");
+  const auto voxel = run_hapvox("replay " + trace + " --volume " + kFemPhantom + " --incision " +
+                                cut + " -q -o " + dir + "/bad.h5");
   EXPECT_EQ(voxel.exit_code, 2);
   EXPECT_EQ(voxel.err, "hapvox: error: --incision: needs --model fem\n");
 }
@@ -256,7 +256,7 @@ TEST(ReplayFemCli, BadInputIsOneLineAndExitTwo) {
   const std::string dir = scratch_dir();
   const std::string trace = write_pull_trace(dir, 1.0);
   const std::string base =
-      "replay " + trace + " --volume " + kPhantom + " -q -o " + dir + "/bad.h5";
+      "replay " + trace + " --volume " + kFemPhantom + " -q -o " + dir + "/bad.h5";
   const std::string toml = source_path("data/four_spheres.toml");
   expect_replay_error(dir, base + " --model fem", "--materials: --model fem needs one");
   expect_replay_error(dir, base + " --model clay", "--model: unknown model 'clay' (voxel or fem)");
@@ -306,7 +306,7 @@ TEST(ReplayFemCli, BadInputIsOneLineAndExitTwo) {
   const std::string far = dir + "/far.csv";
   std::ofstream(far) << "t,x,y,z\n0,100,100,100\n0.01,101,100,100\n";
   const auto r =
-      run_hapvox("replay " + far + " --volume " + kPhantom + " --model fem --materials " + toml +
+      run_hapvox("replay " + far + " --volume " + kFemPhantom + " --model fem --materials " + toml +
                  " --boundary-levels 1 --interaction grab -q -o " + dir + "/bad.h5");
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_EQ(

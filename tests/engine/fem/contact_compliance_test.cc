@@ -29,22 +29,23 @@ namespace {
 using fixtures::vertices_where;
 using ::hapvox::testing::allocations_on_this_thread;
 
-const Eigen::Vector3d kOrigin(0.5, -1.0, 2.0);
+const Eigen::Vector3d kComplianceOrigin(0.5, -1.0, 2.0);
 
 // A jittered, two-material block standing on its clamped bottom face, and the vertices of
 // its top face that are not on its edges (where a tool would press).
 struct Block {
   double h = 2.0;
-  TetMesh mesh = fixtures::jittered(regular_lattice({6, 5, 4}, h, kOrigin), h, 0.2);
+  TetMesh mesh = fixtures::jittered(regular_lattice({6, 5, 4}, h, kComplianceOrigin), h, 0.2);
   std::vector<TetMaterial> materials;
   std::vector<int> bottom, top;
   Block() {
     materials = fixtures::uniform(mesh, {2e6, 0.3});
     for (int t = 0; t < mesh.tet_count(); t += 5) materials[t] = {4e7, 0.45};
-    bottom = vertices_where(
-        mesh, [](const Eigen::Vector3d& x) { return std::abs(x.z() - kOrigin.z()) < 1e-9; });
+    bottom = vertices_where(mesh, [](const Eigen::Vector3d& x) {
+      return std::abs(x.z() - kComplianceOrigin.z()) < 1e-9;
+    });
     top = vertices_where(mesh, [this](const Eigen::Vector3d& x) {
-      const Eigen::Vector3d local = (x - kOrigin) / h;
+      const Eigen::Vector3d local = (x - kComplianceOrigin) / h;
       return std::abs(local.z() - 3) < 1e-9 && local.x() > 0.5 && local.x() < 4.5 &&
              local.y() > 0.5 && local.y() < 3.5;
     });

@@ -16,7 +16,7 @@ namespace {
 
 using fixtures::vertices_where;
 
-const Eigen::Vector3d kOrigin(-1.0, 2.0, 0.5);
+const Eigen::Vector3d kCorotationalOrigin(-1.0, 2.0, 0.5);
 
 // The displacement that maps every vertex X to c + R (X + u(X) - c).
 Eigen::VectorXd moved_by(const TetMesh& mesh, const Eigen::Matrix3d& rotation,
@@ -40,15 +40,16 @@ std::vector<int> face_vertices(const TetMesh& mesh, int axis, double at) {
 
 TEST(Corotational, RigidRotationBy90DegreesCostsNoForce) {
   const double h = 2.0;
-  const TetMesh mesh = fixtures::jittered(regular_lattice({5, 5, 5}, h, kOrigin), h, 0.2);
+  const TetMesh mesh =
+      fixtures::jittered(regular_lattice({5, 5, 5}, h, kCorotationalOrigin), h, 0.2);
   const CorotationalFem fem(mesh, fixtures::uniform(mesh, {1e6, 0.3}),
-                            vertex_dofs(face_vertices(mesh, 2, kOrigin.z())));
-  const Eigen::Vector3d centre = kOrigin + Eigen::Vector3d(4, 4, 4);
+                            vertex_dofs(face_vertices(mesh, 2, kCorotationalOrigin.z())));
+  const Eigen::Vector3d centre = kCorotationalOrigin + Eigen::Vector3d(4, 4, 4);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(3 * mesh.vertex_count());
   // The yardstick: the elastic forces of a 1 % uniaxial strain along z.
   Eigen::VectorXd strained = zero;
   for (int v = 0; v < mesh.vertex_count(); ++v) {
-    strained[dof_index(v, 2)] = 0.01 * (mesh.rest_mm(2, v) - kOrigin.z());
+    strained[dof_index(v, 2)] = 0.01 * (mesh.rest_mm(2, v) - kCorotationalOrigin.z());
   }
   const double strain_force = fem.rest().elastic_forces_n(strained).norm();
   for (const Eigen::Vector3d& axis : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(1, 2, -1)}) {
@@ -78,14 +79,16 @@ TEST(Corotational, RigidRotationBy90DegreesCostsNoForce) {
 
 TEST(Corotational, SmallDeformationsAgreeWithLinearFem) {
   const double h = 2.0;
-  const TetMesh mesh = fixtures::jittered(regular_lattice({7, 3, 3}, h, kOrigin), h, 0.2);
+  const TetMesh mesh =
+      fixtures::jittered(regular_lattice({7, 3, 3}, h, kCorotationalOrigin), h, 0.2);
   CorotationalFem fem(mesh, fixtures::uniform(mesh, {1e6, 0.3}),
-                      vertex_dofs(face_vertices(mesh, 0, kOrigin.x())));
+                      vertex_dofs(face_vertices(mesh, 0, kCorotationalOrigin.x())));
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(3 * mesh.vertex_count());
   // Relative difference between the two answers, and the tip's rotation, for a tip load.
   const auto compare = [&](double load_n) {
     Eigen::VectorXd loads = zero;
-    for (int v : face_vertices(mesh, 0, kOrigin.x() + 12)) loads[dof_index(v, 2)] = -load_n;
+    for (int v : face_vertices(mesh, 0, kCorotationalOrigin.x() + 12))
+      loads[dof_index(v, 2)] = -load_n;
     const Eigen::VectorXd linear = fem.rest().solve_mm(loads, zero);
     const Eigen::VectorXd corotational = fem.solve_mm(zero, loads, zero, 1e-16, 20);
     return std::pair(fixtures::relative_error(corotational, linear),
@@ -114,9 +117,10 @@ class CorotationalModes : public ::testing::TestWithParam<Mode> {};
 TEST_P(CorotationalModes, RotatedCompressedBlockIsTheCompressedBlockRotated) {
   const double h = 2.0;
   const int nz = 7;
-  const TetMesh mesh = fixtures::jittered(regular_lattice({4, 4, nz}, h, kOrigin), h, 0.15);
-  const double top = kOrigin.z() + (nz - 1) * h;
-  std::vector<int> clamped = face_vertices(mesh, 2, kOrigin.z());
+  const TetMesh mesh =
+      fixtures::jittered(regular_lattice({4, 4, nz}, h, kCorotationalOrigin), h, 0.15);
+  const double top = kCorotationalOrigin.z() + (nz - 1) * h;
+  std::vector<int> clamped = face_vertices(mesh, 2, kCorotationalOrigin.z());
   for (int v : face_vertices(mesh, 2, top)) clamped.push_back(v);
   const TetMaterial material{1e6, 0.45};
   CorotationalFem fem(mesh, fixtures::uniform(mesh, material), vertex_dofs(clamped),
@@ -126,14 +130,15 @@ TEST_P(CorotationalModes, RotatedCompressedBlockIsTheCompressedBlockRotated) {
 
   // Squeeze the block by 2 % between its clamped ends.
   Eigen::VectorXd squeeze = zero;
-  for (int v : face_vertices(mesh, 2, top)) squeeze[dof_index(v, 2)] = -0.02 * (top - kOrigin.z());
+  for (int v : face_vertices(mesh, 2, top))
+    squeeze[dof_index(v, 2)] = -0.02 * (top - kCorotationalOrigin.z());
   int steps = 0;
   const Eigen::VectorXd upright = fem.solve_mm(zero, zero, squeeze, 1e-12, 50, &steps);
   const double upright_change =
       deformed_volume_mm3(mesh, positions(mesh, upright)) / rest_volume - 1;
 
   // Then turn the squeezed ends by 90 degrees about a horizontal axis, 15 degrees a step.
-  const Eigen::Vector3d centre = kOrigin + Eigen::Vector3d(3, 3, 6);
+  const Eigen::Vector3d centre = kCorotationalOrigin + Eigen::Vector3d(3, 3, 6);
   const Eigen::Vector3d axis = Eigen::Vector3d(1, 0.5, 0).normalized();
   Eigen::VectorXd u = upright;
   int total_steps = steps, max_cg = 0;
@@ -183,11 +188,11 @@ INSTANTIATE_TEST_SUITE_P(Solvers, CorotationalModes,
 
 TEST(Corotational, ReportsStepTimesAtAThousandTets) {
   const double h = 2.0;
-  const TetMesh mesh = regular_lattice({7, 7, 7}, h, kOrigin);  // 1,296 tets
-  const std::vector<int> clamped = face_vertices(mesh, 2, kOrigin.z());
+  const TetMesh mesh = regular_lattice({7, 7, 7}, h, kCorotationalOrigin);  // 1,296 tets
+  const std::vector<int> clamped = face_vertices(mesh, 2, kCorotationalOrigin.z());
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(3 * mesh.vertex_count());
   Eigen::VectorXd loads = zero;
-  for (int v : face_vertices(mesh, 2, kOrigin.z() + 12)) loads[dof_index(v, 0)] = 0.02;
+  for (int v : face_vertices(mesh, 2, kCorotationalOrigin.z() + 12)) loads[dof_index(v, 0)] = 0.02;
   using Clock = std::chrono::steady_clock;
   const auto ms = [](Clock::duration d) {
     return std::chrono::duration<double, std::milli>(d).count();

@@ -17,17 +17,17 @@ namespace {
 using fixtures::axis_dofs;
 using fixtures::vertices_where;
 
-const Eigen::Vector3d kOrigin(1.0, -2.0, 3.0);
+const Eigen::Vector3d kLinearFemOrigin(1.0, -2.0, 3.0);
 
 // A box on the lattice with roller supports on its three low faces (each holds only its
 // normal DOF), plus the top face's normal DOF, prescribed.
 struct RollerBox {
   double h = 2.5;
   int nx = 4, ny = 3, nz = 6;
-  TetMesh mesh = fixtures::jittered(regular_lattice({nx, ny, nz}, h, kOrigin), h, 0.15);
+  TetMesh mesh = fixtures::jittered(regular_lattice({nx, ny, nz}, h, kLinearFemOrigin), h, 0.15);
   Eigen::Vector3d size() const { return h * Eigen::Vector3d(nx - 1, ny - 1, nz - 1); }
   std::vector<int> on_face(int axis, bool high) const {
-    const double at = kOrigin[axis] + (high ? size()[axis] : 0.0);
+    const double at = kLinearFemOrigin[axis] + (high ? size()[axis] : 0.0);
     return vertices_where(mesh,
                           [&](const Eigen::Vector3d& x) { return std::abs(x[axis] - at) < 1e-9; });
   }
@@ -65,7 +65,7 @@ TEST(LinearFem, UniaxialCompressionMatchesHookesLaw) {
   // Every vertex (interior ones jittered) follows the closed-form linear field.
   double worst = 0;
   for (int v = 0; v < box.mesh.vertex_count(); ++v) {
-    const Eigen::Vector3d x = box.mesh.rest_mm.col(v) - kOrigin;
+    const Eigen::Vector3d x = box.mesh.rest_mm.col(v) - kLinearFemOrigin;
     const Eigen::Vector3d expected(material.poisson * strain * x.x(),
                                    material.poisson * strain * x.y(), -strain * x.z());
     worst = std::max(worst, (u.segment<3>(3 * v) - expected).norm() / delta_mm);
@@ -81,8 +81,9 @@ TEST(LinearFem, TwoLayersInSeriesAddTheirCompliances) {
   // Layers with equal nu/E expand sideways alike, so uniaxial stress holds exactly in both:
   // delta = sigma (h1/E1 + h2/E2).
   RollerBox box;
-  box.mesh = regular_lattice({box.nx, box.ny, box.nz}, box.h, kOrigin);  // a planar interface
-  const double split = kOrigin.z() + 2 * box.h;
+  box.mesh =
+      regular_lattice({box.nx, box.ny, box.nz}, box.h, kLinearFemOrigin);  // a planar interface
+  const double split = kLinearFemOrigin.z() + 2 * box.h;
   for (int t = 0; t < box.mesh.tet_count(); ++t) {
     double centroid_z = 0;
     for (int v : box.mesh.tets[t]) centroid_z += box.mesh.rest_mm(2, v) / 4;
@@ -113,7 +114,7 @@ TEST(LinearFem, TwoLayersInSeriesAddTheirCompliances) {
 
 TEST(LinearFem, PatchTestReproducesALinearFieldInsideAJitteredMesh) {
   const double h = 2.0;
-  const TetMesh mesh = fixtures::jittered(regular_lattice({5, 5, 5}, h, kOrigin), h, 0.2);
+  const TetMesh mesh = fixtures::jittered(regular_lattice({5, 5, 5}, h, kLinearFemOrigin), h, 0.2);
   ASSERT_EQ(mesh_quality(mesh).inverted_tets, 0);
   const Eigen::Vector3d lo = mesh.rest_mm.rowwise().minCoeff();
   const Eigen::Vector3d hi = mesh.rest_mm.rowwise().maxCoeff();
@@ -142,7 +143,7 @@ TEST(LinearFem, PatchTestReproducesALinearFieldInsideAJitteredMesh) {
 
 TEST(LinearFem, StiffnessIsSymmetricAndFreeOfRigidMotions) {
   const double h = 1.5;
-  TetMesh mesh = fixtures::jittered(regular_lattice({4, 5, 3}, h, kOrigin), h, 0.2);
+  TetMesh mesh = fixtures::jittered(regular_lattice({4, 5, 3}, h, kLinearFemOrigin), h, 0.2);
   std::vector<TetMaterial> materials = fixtures::uniform(mesh, {2e6, 0.3});
   for (int t = 0; t < mesh.tet_count(); t += 3) materials[t] = {9e6, 0.1};
   const LinearFem fem(mesh, materials, vertex_dofs(std::vector<int>{0, 1, 4}));
@@ -162,11 +163,11 @@ TEST(LinearFem, StiffnessIsSymmetricAndFreeOfRigidMotions) {
 
 TEST(LinearFem, MaxwellBettiReciprocity) {
   const double h = 2.0;
-  TetMesh mesh = fixtures::jittered(regular_lattice({6, 3, 4}, h, kOrigin), h, 0.2);
+  TetMesh mesh = fixtures::jittered(regular_lattice({6, 3, 4}, h, kLinearFemOrigin), h, 0.2);
   std::vector<TetMaterial> materials = fixtures::uniform(mesh, {2e6, 0.3});
   for (int t = 0; t < mesh.tet_count(); t += 4) materials[t] = {3e7, 0.45};
   const std::vector<int> clamped = vertices_where(
-      mesh, [](const Eigen::Vector3d& x) { return std::abs(x.x() - kOrigin.x()) < 1e-9; });
+      mesh, [](const Eigen::Vector3d& x) { return std::abs(x.x() - kLinearFemOrigin.x()) < 1e-9; });
   const LinearFem fem(mesh, materials, vertex_dofs(clamped));
   const int i = dof_index(mesh.vertex_count() - 1, 2);  // a far corner, vertically
   const int j = dof_index(3 + 6 * (1 + 3 * 2), 0);      // vertex (3, 1, 2), along the beam
@@ -232,7 +233,7 @@ TEST(LinearFem, CantileverDeflectionRisesUnderRefinementTowardEulerBernoulli) {
 }
 
 TEST(LinearFem, TooFewConstraintsAreAnInputError) {
-  const TetMesh mesh = regular_lattice({3, 3, 3}, 1.0, kOrigin);
+  const TetMesh mesh = regular_lattice({3, 3, 3}, 1.0, kLinearFemOrigin);
   const auto materials = fixtures::uniform(mesh, {1e6, 0.3});
   EXPECT_THROW(LinearFem(mesh, materials, {}), InputError);
   // Two pinned vertices leave the spin about the line through them.
@@ -247,7 +248,7 @@ TEST(LinearFem, TooFewConstraintsAreAnInputError) {
 }
 
 TEST(LinearFem, BadMaterialNamesTheTet) {
-  const TetMesh mesh = regular_lattice({3, 3, 3}, 1.0, kOrigin);
+  const TetMesh mesh = regular_lattice({3, 3, 3}, 1.0, kLinearFemOrigin);
   auto materials = fixtures::uniform(mesh, {1e6, 0.3});
   materials[9].poisson = 0.5;
   try {

@@ -13,26 +13,26 @@
 namespace hapvox::engine::fem {
 namespace {
 
-const Eigen::Vector3d kOrigin(-3.1, 2.2, 10.5);
+const Eigen::Vector3d kTetMeshOrigin(-3.1, 2.2, 10.5);
 
 TEST(RegularLattice, HasSixTetsPerCube) {
-  EXPECT_EQ(regular_lattice({2, 2, 2}, 1.0, kOrigin).tet_count(), 6);
-  const TetMesh mesh = regular_lattice({3, 4, 5}, 0.7, kOrigin);
+  EXPECT_EQ(regular_lattice({2, 2, 2}, 1.0, kTetMeshOrigin).tet_count(), 6);
+  const TetMesh mesh = regular_lattice({3, 4, 5}, 0.7, kTetMeshOrigin);
   EXPECT_EQ(mesh.tet_count(), 6 * 2 * 3 * 4);
   EXPECT_EQ(mesh.vertex_count(), 3 * 4 * 5);
   EXPECT_EQ(mesh.labels.size(), mesh.tets.size());
 }
 
 TEST(RegularLattice, VerticesSitOnTheGrid) {
-  const TetMesh mesh = regular_lattice({3, 4, 5}, 0.7, kOrigin);
+  const TetMesh mesh = regular_lattice({3, 4, 5}, 0.7, kTetMeshOrigin);
   // Vertex (i, j, k) is number i + n_x (j + n_y k).
-  const Eigen::Vector3d expected = kOrigin + 0.7 * Eigen::Vector3d(2, 1, 3);
+  const Eigen::Vector3d expected = kTetMeshOrigin + 0.7 * Eigen::Vector3d(2, 1, 3);
   EXPECT_NEAR((mesh.rest_mm.col(2 + 3 * (1 + 4 * 3)) - expected).norm(), 0, 1e-12);
 }
 
 TEST(RegularLattice, FillsTheBoxWithPositiveTetsOfAFixedShape) {
   const double h = 0.7;
-  const TetMesh mesh = regular_lattice({5, 4, 6}, h, kOrigin);
+  const TetMesh mesh = regular_lattice({5, 4, 6}, h, kTetMeshOrigin);
   const MeshQuality quality = mesh_quality(mesh);
   const double box = (4 * h) * (3 * h) * (5 * h);
   EXPECT_NEAR(quality.total_volume_mm3 / box, 1.0, 1e-12);
@@ -48,7 +48,7 @@ TEST(RegularLattice, FillsTheBoxWithPositiveTetsOfAFixedShape) {
 }
 
 TEST(RegularLattice, DihedralAnglesLieBetween45And90Degrees) {
-  const MeshQuality quality = mesh_quality(regular_lattice({4, 3, 5}, 1.3, kOrigin));
+  const MeshQuality quality = mesh_quality(regular_lattice({4, 3, 5}, 1.3, kTetMeshOrigin));
   // The Kuhn tet has dihedral angles of exactly 45, 60 and 90 degrees.
   EXPECT_NEAR(quality.min_dihedral_deg, 45.0, 1e-9);
   EXPECT_NEAR(quality.max_dihedral_deg, 90.0, 1e-9);
@@ -57,7 +57,7 @@ TEST(RegularLattice, DihedralAnglesLieBetween45And90Degrees) {
 TEST(RegularLattice, IsConformingWithAClosedOutwardSurface) {
   const double h = 0.5;
   const int nx = 4, ny = 3, nz = 5;
-  const TetMesh mesh = regular_lattice({nx, ny, nz}, h, kOrigin);
+  const TetMesh mesh = regular_lattice({nx, ny, nz}, h, kTetMeshOrigin);
   const std::vector<Triangle> surface = boundary_faces(mesh);
   // A face two cubes share is cut the same way from both sides, so the only unmatched faces
   // are the two triangles of each square on the box's surface.
@@ -80,8 +80,8 @@ TEST(RegularLattice, IsConformingWithAClosedOutwardSurface) {
 }
 
 TEST(RegularLattice, SameInputGivesAByteIdenticalMesh) {
-  const TetMesh first = regular_lattice({6, 5, 4}, 0.37, kOrigin, 3);
-  const TetMesh second = regular_lattice({6, 5, 4}, 0.37, kOrigin, 3);
+  const TetMesh first = regular_lattice({6, 5, 4}, 0.37, kTetMeshOrigin, 3);
+  const TetMesh second = regular_lattice({6, 5, 4}, 0.37, kTetMeshOrigin, 3);
   ASSERT_EQ(first.rest_mm.size(), second.rest_mm.size());
   ASSERT_EQ(first.tets.size(), second.tets.size());
   ASSERT_EQ(first.labels.size(), second.labels.size());
@@ -96,10 +96,10 @@ TEST(RegularLattice, SameInputGivesAByteIdenticalMesh) {
 }
 
 TEST(RegularLattice, RejectsBadArguments) {
-  EXPECT_THROW(regular_lattice({1, 3, 3}, 1.0, kOrigin), InputError);
-  EXPECT_THROW(regular_lattice({3, 3, 3}, 0.0, kOrigin), InputError);
-  EXPECT_THROW(regular_lattice({3, 3, 3}, std::nan(""), kOrigin), InputError);
-  EXPECT_THROW(regular_lattice({2000, 2000, 2000}, 1.0, kOrigin), InputError);
+  EXPECT_THROW(regular_lattice({1, 3, 3}, 1.0, kTetMeshOrigin), InputError);
+  EXPECT_THROW(regular_lattice({3, 3, 3}, 0.0, kTetMeshOrigin), InputError);
+  EXPECT_THROW(regular_lattice({3, 3, 3}, std::nan(""), kTetMeshOrigin), InputError);
+  EXPECT_THROW(regular_lattice({2000, 2000, 2000}, 1.0, kTetMeshOrigin), InputError);
 }
 
 TEST(TetGeometry, BarycentricGradientsAreDualToTheEdges) {
@@ -125,14 +125,14 @@ TEST(TetGeometry, RegularTetrahedronHasTheDihedralArccosOneThird) {
 }
 
 TEST(TetGeometry, DeformedVolumeScalesWithTheCubeOfAStretch) {
-  const TetMesh mesh = regular_lattice({3, 3, 4}, 1.0, kOrigin);
+  const TetMesh mesh = regular_lattice({3, 3, 4}, 1.0, kTetMeshOrigin);
   const Eigen::Matrix3d stretch = Eigen::Vector3d(1.1, 0.9, 1.3).asDiagonal();
   const Eigen::Matrix3Xd moved = stretch * mesh.rest_mm;
   EXPECT_NEAR(deformed_volume_mm3(mesh, moved) / (2 * 2 * 3 * 1.1 * 0.9 * 1.3), 1.0, 1e-12);
 }
 
 TEST(Validate, AcceptsTheLatticeAndNamesTheBadTet) {
-  TetMesh mesh = regular_lattice({3, 3, 3}, 1.0, kOrigin);
+  TetMesh mesh = regular_lattice({3, 3, 3}, 1.0, kTetMeshOrigin);
   EXPECT_NO_THROW(validate(mesh, "mesh.h5"));
   std::swap(mesh.tets[5][2], mesh.tets[5][3]);  // inverted
   try {
@@ -147,7 +147,7 @@ TEST(Validate, AcceptsTheLatticeAndNamesTheBadTet) {
   EXPECT_THROW(validate(mesh, "mesh.h5"), InputError);
   mesh.tets[7][1] = mesh.tets[7][0];
   EXPECT_THROW(validate(mesh, "mesh.h5"), InputError);
-  mesh = regular_lattice({3, 3, 3}, 1.0, kOrigin);
+  mesh = regular_lattice({3, 3, 3}, 1.0, kTetMeshOrigin);
   mesh.labels.pop_back();
   EXPECT_THROW(validate(mesh, "mesh.h5"), InputError);
 }

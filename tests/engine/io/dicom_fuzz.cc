@@ -63,7 +63,7 @@ bool read_as_dicom(unsigned layout, unsigned split, const std::string& bytes,
 }
 
 // One input: layout byte, split byte, data.
-int fuzz_one_input(const std::uint8_t* data, std::size_t size, bool* read = nullptr) {
+int fuzz_dicom(const std::uint8_t* data, std::size_t size, bool* read = nullptr) {
   if (size < 2) return 0;
   const std::string bytes(reinterpret_cast<const char*>(data) + 2, size - 2);
   const bool ok =
@@ -74,10 +74,10 @@ int fuzz_one_input(const std::uint8_t* data, std::size_t size, bool* read = null
 
 }  // namespace
 
-// io_tests holds volume_fuzz's entry point too; there the test calls fuzz_one_input.
+// io_tests holds volume_fuzz's entry point too; there the test calls fuzz_dicom.
 #ifndef HAPVOX_FUZZ_REPLAY
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  return fuzz_one_input(data, size);
+  return fuzz_dicom(data, size);
 }
 #endif
 
@@ -113,7 +113,7 @@ TEST(DicomFuzz, MutationsOfRealFilesReadOrGiveOneLineErrors) {
     input[1] = static_cast<char>(rng() % 256);
     input += hapvox::testing::mutate(i % 2 == 0 ? ct : mr, rng);
     bool ok = false;
-    fuzz_one_input(reinterpret_cast<const std::uint8_t*>(input.data()), input.size(), &ok);
+    fuzz_dicom(reinterpret_cast<const std::uint8_t*>(input.data()), input.size(), &ok);
     (ok ? read : rejected)++;
   }
   // Both outcomes happen: a test whose mutations all fail early would fuzz nothing.
