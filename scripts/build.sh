@@ -4,8 +4,10 @@
 # Without --target, everything (the hapvox command and the test suite) is built; with it,
 # only the targets named (a space-separated list, or --target given again). The
 # compiler runs through ccache when ccache is on PATH (its cache lives under $HOME), told
-# that precompiled headers are safe to cache: without that sloppiness it caches nothing
-# here, every file being compiled with engine/'s precompiled OpenVDB and Eigen headers.
+# that precompiled headers are safe to cache: without that sloppiness a file-by-file build
+# (-DCMAKE_UNITY_BUILD=OFF, which uses engine/'s precompiled OpenVDB and Eigen headers)
+# caches nothing. A unity build's batch files #include sources by absolute path, so a clone
+# in another folder misses the cache for them; CI is timed cold (.ci/run).
 # CCACHE_BASEDIR makes paths under the checkout relative and CCACHE_NOHASHDIR leaves the
 # working directory out of the hash, so a clone in another folder (CI's) hits the cache.
 # CI compiles three configurations (ASan, TSan, release) of about 4 GB of objects each:
