@@ -96,7 +96,7 @@ int main(int argc, char** argv) {
   hapvox::cli::add_sculpt_command(app);
   hapvox::cli::add_sweep_command(app);
   hapvox::cli::add_input_limit_flags(app);
-  hapvox::cli::refuse_nan_values(app);  // after every option is added
+  hapvox::cli::refuse_non_finite_values(app);  // after every option is added
   try {
     check_command_names(app, argc, argv);
     app.parse(argc, argv);

@@ -1,6 +1,8 @@
 // Fuzz target for the device bridge's packet parser (haptics/bridge_packet.h): any bytes are
 // a packet or one PacketError; nothing is read past the datagram (ASan), nothing crashes,
-// and an accepted packet encodes back to the same bytes. The first byte picks the parser
+// and an accepted packet encodes back to the same bytes. The position an accepted packet
+// carries, arriving once amid a device held still, keeps every force sent finite, clamped
+// and continuous (force_safety_check.h). The first byte picks the parser
 // (bit 0 clear: position, set: force) and whether it checks a key's tags (bit 1: the
 // fixed key below; an accepted keyed packet encodes back to its bytes, tag included).
 //
@@ -15,6 +17,7 @@
 #include <cstring>
 #include <vector>
 
+#include "force_safety_check.h"
 #include "haptics/bridge_packet.h"
 
 namespace {
@@ -38,6 +41,16 @@ void check_round_trip(const std::uint8_t* data, std::size_t size, const Packet& 
   if (compare && std::memcmp(again.data(), data, size) != 0) std::abort();
 }
 
+// The device rests at the seed packet's position (3.8 N in the test's spring) for 20 ticks, the
+// packet's position comes for one tick, then the rest position again: a wild one (1e300 mm)
+// must ramp the force out and back in, never step it.
+void abort_unless_one_packet_is_safe(const Vec3d& position_mm) {
+  const Vec3d rest_mm(10.0, -20.0, 30.5);
+  std::vector<Vec3d> stream(60, rest_mm);
+  stream[20] = position_mm;
+  hapvox::testing::abort_unless_forces_safe(stream);
+}
+
 int fuzz_bridge_packet(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   // A copy of exactly the datagram's bytes: ASan sees any read past its end.
@@ -50,6 +63,7 @@ int fuzz_bridge_packet(const std::uint8_t* data, std::size_t size) {
     if (static_cast<int>(e) < 0 || static_cast<int>(e) >= kPacketErrorCount) std::abort();
     if (e == PacketError::none) {
       if (!p.position_mm.allFinite()) std::abort();
+      abort_unless_one_packet_is_safe(p.position_mm);
       bool numbers = true;
       for (double q : p.orientation_wxyz) numbers = numbers && !std::isnan(q);
       check_round_trip(bytes, datagram.size(), p, encode_position, key, numbers);

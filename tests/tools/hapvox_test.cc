@@ -331,7 +331,7 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
                          "/x.h5 --plastic -E 1e5 --elastoplastic-modulus-pa 2e5",
                      "--elastoplastic-modulus-pa: must lie in [0, E)");
   expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
-                         "/x.h5 --plastic --relax-tolerance inf",
+                         "/x.h5 --plastic --relax-tolerance 11",
                      "--relax-tolerance: must lie in [0, 10]");
   // The material's normal density: a fraction in (0, 1], recorded in the session.
   for (const char* bad : {"0", "-0.5", "1.5"}) {
@@ -345,6 +345,15 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
                            "/x.h5 --plastic " + flag + " nan",
                        std::string(flag == std::string("-E") ? "--youngs-modulus-pa" : flag) +
                            ": must be a number, not nan (see hapvox --help)");
+  }
+  // Infinities too, written or overflowing, but for --slip-ratio's documented inf.
+  for (const char* flag : {"--normal-density", "-E", "--max-force-n", "--ramp-in-s"}) {
+    for (const char* bad : {"inf", "-inf", "1e999", "-1e999"}) {
+      expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
+                             "/x.h5 --plastic " + flag + " " + bad,
+                         std::string(flag == std::string("-E") ? "--youngs-modulus-pa" : flag) +
+                             ": must be a finite number, not " + bad + " (see hapvox --help)");
+    }
   }
   for (const char* bad : {"-1", "-inf"}) {
     expect_input_error(
