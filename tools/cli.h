@@ -100,9 +100,9 @@ void add_validate_command(CLI::App& app);  // tools/cmd_validate.cc
 void add_trace_command(CLI::App& app);
 
 /// Gives every floating-point option of `app` and its subcommands a check that refuses NaN
-/// ("--slip-ratio: must be a number, not nan") and infinities ("-E: must be a finite number,
-/// not inf"), but for the options whose help gives inf a meaning (--slip-ratio). Call once
-/// all commands are added.
+/// ("--slip-ratio: must be a number, not nan") and infinities ("--youngs-modulus-pa: must be
+/// a finite number, not inf"), but for the options whose help gives inf a meaning
+/// (--slip-ratio). Call once all commands are added.
 void refuse_non_finite_values(CLI::App& app);
 
 /// Fails with InputError(flag, ...) when OUTPUT is empty, and otherwise as
