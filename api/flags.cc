@@ -1,5 +1,6 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 
 #include "api/internal.h"
@@ -9,9 +10,11 @@
 namespace hapvox::api {
 
 std::string flag_number(double value) {
+  // The shortest text that reads back as `value`: exact, and an error line quoting it shows
+  // 0.7 where the caller wrote 0.7.
   char text[40];
-  std::snprintf(text, sizeof text, "%.17g", value);
-  return text;
+  const auto [end, ec] = std::to_chars(text, text + sizeof text, value);
+  return std::string(text, ec == std::errc() ? end : text);
 }
 
 namespace {
@@ -57,6 +60,7 @@ std::unique_ptr<CLI::App> parse_replay_flags(const std::vector<std::string>& arg
   auto app = std::make_unique<CLI::App>("hapvox");
   app->require_subcommand(1);
   cli::add_replay_subcommand(*app, &flags);
+  cli::check_numeric_options(*app);
   std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 pops from the back
   try {
     app->parse(reversed);

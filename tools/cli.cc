@@ -13,7 +13,6 @@
 #include <fstream>
 #include <optional>
 #include <regex>
-#include <set>
 #include <sstream>
 #include <system_error>
 
@@ -260,31 +259,6 @@ std::string& command_line_storage() {
   return text;
 }
 }  // namespace
-
-void refuse_non_finite_values(CLI::App& app) {
-  // CLI11 reads "nan", "inf" and "1e999" into a double like any number. No option of hapvox
-  // means NaN; only the options named here give infinity a meaning (their help says which).
-  static const std::set<std::string> kInfinityMeansSomething = {"--slip-ratio"};
-  static const auto number_check = [](bool infinity_allowed) {
-    return CLI::Validator(
-        [infinity_allowed](std::string& text) -> std::string {
-          char* end = nullptr;
-          const double value = std::strtod(text.c_str(), &end);
-          if (end == text.c_str() || *end != '\0') return {};  // CLI11's own error follows
-          if (std::isnan(value)) return "must be a number, not " + text;
-          if (std::isinf(value) && !infinity_allowed) return "must be a finite number, not " + text;
-          return {};
-        },
-        "", infinity_allowed ? "not NaN" : "finite");
-  };
-  static const CLI::Validator finite = number_check(false);
-  static const CLI::Validator not_nan = number_check(true);
-  for (CLI::Option* option : app.get_options()) {
-    if (option->get_type_name().find("FLOAT") == std::string::npos) continue;
-    option->check(kInfinityMeansSomething.count(option->get_name()) != 0 ? not_nan : finite);
-  }
-  for (CLI::App* sub : app.get_subcommands({})) refuse_non_finite_values(*sub);
-}
 
 void set_command_line(int argc, char** argv) {
   std::string& text = command_line_storage();

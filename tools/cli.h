@@ -99,11 +99,17 @@ void add_bench_command(CLI::App& app);
 void add_validate_command(CLI::App& app);  // tools/cmd_validate.cc
 void add_trace_command(CLI::App& app);
 
-/// Gives every floating-point option of `app` and its subcommands a check that refuses NaN
-/// ("--slip-ratio: must be a number, not nan") and infinities ("--youngs-modulus-pa: must be
-/// a finite number, not inf"), but for the options whose help gives inf a meaning
-/// (--slip-ratio). Call once all commands are added.
-void refuse_non_finite_values(CLI::App& app);
+/// Gives every numeric option of `app` and its subcommands the check of its stated range
+/// (tools/option_ranges.cc), shown in its help: NaN ("--slip-ratio: must be a number, not
+/// nan"), infinities but where the range allows them ("--youngs-modulus-pa: must be a finite
+/// number, not inf") and values outside it ("--poisson: must lie in (-1, 0.5), not 0.7") are
+/// refused as the command line is parsed. Throws std::logic_error naming a numeric option
+/// with no range. Call once all options are added.
+void check_numeric_options(CLI::App& app);
+
+/// The same check of a value set in code (the API's loop options): InputError(option, ...)
+/// with the command line's words, the value written as the shortest text that reads back.
+void check_option_value(const std::string& option, double value);
 
 /// Fails with InputError(flag, ...) when OUTPUT is empty, and otherwise as
 /// engine::io::check_output_target: a missing folder, a link, a directory or special file at

@@ -96,8 +96,8 @@ int main(int argc, char** argv) {
   hapvox::cli::add_sculpt_command(app);
   hapvox::cli::add_sweep_command(app);
   hapvox::cli::add_input_limit_flags(app);
-  hapvox::cli::refuse_non_finite_values(app);  // after every option is added
   try {
+    hapvox::cli::check_numeric_options(app);  // after every option is added
     check_command_names(app, argc, argv);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -42,20 +42,23 @@ void check_row(const haptics::SweepManifest& m, const haptics::SweepRow& row) {
   }
   for (const InputPath& input : volume) exists(input.path, "volume");
   if (!row.materials.empty()) exists(row.materials, "materials");
-  // The replay's own parser on the row's arguments: unknown flags and values of the wrong
-  // type are the manifest's mistakes.
+  // The replay's own parser on the row's arguments: unknown flags, values of the wrong type
+  // and values out of their option's range are the manifest's mistakes.
   CLI::App app;
   ReplayFlags flags;
   CLI::App* replay = app.add_subcommand("replay");
   add_replay_flags(replay, &flags);
   replay->add_option("--output,-o", flags.output);
   replay->add_flag("--realtime", flags.realtime);
+  check_numeric_options(app);
   std::vector<std::string> args = haptics::sweep_replay_arguments(row, "row.h5");
   std::reverse(args.begin(), args.end());  // CLI11 takes them last first
   try {
     app.parse(args);
   } catch (const CLI::ParseError& e) {
     throw InputError(at_line(m, row), std::string("as replay flags: ") + e.what());
+  } catch (const InputError& e) {
+    throw InputError(at_line(m, row), "as replay flags: " + e.source() + ": " + e.problem());
   }
 }
 

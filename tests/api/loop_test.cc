@@ -214,11 +214,11 @@ TEST(ApiLoop, BadLoopOptionsAreTheCommandLinesErrors) {
   LoopOptions options;
   options.max_force_n = 0.0;
   EXPECT_EQ(input_error_of([&] { run_lockstep(model, device, options); }),
-            "--max-force-n: must be positive");
+            "--max-force-n: must lie in (0, 1e6], not 0");
   options = {};
   options.ramp_in_s = -1.0;
   EXPECT_EQ(input_error_of([&] { ForceStage stage(model, options); }),
-            "--ramp-in-s: must be zero or positive");
+            "--ramp-in-s: must lie in [0, 60], not -1");
   EXPECT_EQ(input_error_of([&] { Device::callback({}, 10); }), "device: no read callback");
   EXPECT_EQ(
       input_error_of([&] { Device::callback([](std::size_t) { return ToolSample{}; }, 10, 0.0); }),

@@ -129,7 +129,7 @@ TEST(BenchFemCli, HelpAndBadInput) {
             "hapvox: error: --sizes: expected positive integers separated by commas, got '0'\n");
   const testing::CommandResult time = run_hapvox("bench fem --min-time-s 0");
   EXPECT_EQ(time.exit_code, 2);
-  EXPECT_EQ(time.err, "hapvox: error: --min-time-s: must be positive\n");
+  EXPECT_EQ(time.err, "hapvox: error: --min-time-s: must lie in (0, 3600], not 0\n");
 }
 
 }  // namespace

@@ -74,7 +74,7 @@ TEST(ContactLawCli, ReferenceLengthNeedsThePaperLaw) {
   r = run_hapvox("replay " + trace + " --volume block:dims=64 -o " + dir +
                  "/c.h5 --surface-density 0");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(r.err, "hapvox: error: --surface-density: must lie in (0, 1]\n");
+  EXPECT_EQ(r.err, "hapvox: error: --surface-density: must lie in (0, 1], not 0\n");
   r = run_hapvox("replay " + trace + " --volume block:dims=64 -o " + dir +
                  "/d.h5 --contact-law hooke");
   EXPECT_EQ(r.exit_code, 2);

@@ -281,7 +281,7 @@ TEST(DeviceBridgeCli, BadFlagsAreOneLineAndMakeNoFile) {
                "trace: a trace file is needed (or --device udp:HOST:PORT)");
   expect_error(
       "replay --device udp:127.0.0.1:47001 --realtime --silence-timeout-s 0" + volume + out,
-      "--silence-timeout-s: must lie in (0, 1] s");
+      "--silence-timeout-s: must lie in (0, 1], not 0");
   // A port already in use.
   const haptics::UdpSocket taken = haptics::UdpSocket::bound({"127.0.0.1", 0}, "test");
   const std::string port = std::to_string(taken.local_port());

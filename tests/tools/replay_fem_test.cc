@@ -271,7 +271,7 @@ TEST(ReplayFemCli, BadInputIsOneLineAndExitTwo) {
   expect_replay_error(dir, base + " --model fem --materials " + toml + " --interaction poke",
                       "--interaction: unknown interaction 'poke' (press or grab)");
   expect_replay_error(dir, base + " --model fem --materials " + toml + " --coupling-n-per-mm 0",
-                      "--coupling-n-per-mm: must be positive");
+                      "--coupling-n-per-mm: must lie in (0, 1000], not 0");
   // Label changes: checked before the run starts.
   const std::string fem = base + " --model fem --materials " + toml + " --boundary-levels 1";
   expect_replay_error(dir, base + " --relabel 0.1:1=0", "--relabel: needs --model fem");

@@ -135,7 +135,7 @@ std::string fake_slurm(const std::string& dir) {
 }
 
 // Six rows: 3 traces x 2 tool sizes on the clay block; with `failing`, a seventh row that
-// the replay refuses (a negative yield stress).
+// the replay refuses (a hardening slope above E, which only the run itself can judge).
 void write_six_row_manifest(const std::string& dir, bool failing = false) {
   std::ofstream(dir + "/sweep.toml") << "traces = ['press16.csv', 'press24.csv', 'press32.csv']\n"
                                         "volumes = ['block:dims=48']\n"
@@ -145,7 +145,7 @@ void write_six_row_manifest(const std::string& dir, bool failing = false) {
                                                    "trace = 'press24.csv'\n"
                                                    "volume = 'block:dims=48'\n"
                                                    "options = { plastic = true, "
-                                                   "yield-stress-pa = -5 }\n"
+                                                   "elastoplastic-modulus-pa = 2e5 }\n"
                                                  : "");
 }
 
@@ -280,7 +280,7 @@ TEST(SweepCli, BadBackendFlagsAreOneLineAndRunNoRow) {
                "--time: 'soon' is not a Slurm time (MINUTES, H:MM:SS, DAYS-HOURS, DAYS-H:MM:SS)");
   expect_error(sweep + " --slurm --partition 'a b'", "--partition: 'a b' is not a partition name");
   expect_error(sweep + " --slurm --max-parallel -1",
-               "--max-parallel: must be 0 (no limit) or more");
+               "--max-parallel: must lie in [0, 1e6], not -1");
   expect_error("sweep " + dir + "/sweep.toml -o '" + dir + "/o u t' --emit slurm",
                "--output: a Slurm sweep's directory may not hold spaces, quotes, '\\', '$', '`' "
                "or '%' (#SBATCH lines take one plain word)");
@@ -336,7 +336,7 @@ bool is_session(const fs::path& path) {
 TEST(SweepCli, AKilledSweepRerunsOnlyItsMissingRowsAndAFailedRowIsCounted) {
   const std::string dir = scratch_dir();
   write_traces(dir);
-  // 6 rows, one of which the replay refuses (a negative yield stress).
+  // 6 rows, one of which the replay refuses (a hardening slope above E).
   std::ofstream(dir + "/sweep.toml") << "traces = ['press16.csv', 'press24.csv', 'press32.csv']\n"
                                         "volumes = ['block:dims=48']\n"
                                         "[options]\n"
@@ -344,7 +344,8 @@ TEST(SweepCli, AKilledSweepRerunsOnlyItsMissingRowsAndAFailedRowIsCounted) {
                                         "[[row]]\n"
                                         "trace = 'press24.csv'\n"
                                         "volume = 'block:dims=48'\n"
-                                        "options = { plastic = true, yield-stress-pa = -5 }\n";
+                                        "options = { plastic = true, "
+                                        "elastoplastic-modulus-pa = 2e5 }\n";
   const std::string out = dir + "/out";
   const std::string start = testing::hapvox_binary() + " sweep " + dir + "/sweep.toml -o " + out +
                             " -j 1 > " + dir + "/first.txt 2>&1 & echo $! > " + dir + "/pid";
@@ -388,7 +389,7 @@ TEST(SweepCli, AKilledSweepRerunsOnlyItsMissingRowsAndAFailedRowIsCounted) {
   const auto summary = read_summary(out + "/summary.csv");
   ASSERT_EQ(summary.size(), 7u);
   EXPECT_EQ(summary.back().at("status"), "failed");
-  EXPECT_NE(summary.back().at("error").find("--yield-stress-pa: must be positive"),
+  EXPECT_NE(summary.back().at("error").find("--elastoplastic-modulus-pa: must lie in [0, E)"),
             std::string::npos)
       << summary.back().at("error");
   // A third run has nothing to run and still says a row failed; --retry-failed runs it.
@@ -450,6 +451,9 @@ TEST(SweepCli, ABadManifestIsOneLineNamingItsLineAndRunsNoRow) {
                "1: materials '" + dir + "/soft.toml' is not a file");
   expect_error(grid + "[options]\ntool-diameter-mm = ['big']\n",
                "1: as replay flags: Could not convert: --tool-diameter-mm = big");
+  // Out of its option's range: found when the sweep is planned, not when the row runs.
+  expect_error(grid + "[options]\nyield-stress-pa = -5\nplastic = true\n",
+               "1: as replay flags: --yield-stress-pa: must lie in (0, 1e12], not -5");
   expect_error(grid + "[options]\nshake = 1\n",
                "1: as replay flags: The following arguments were not expected: 1 --shake");
   expect_error(grid + "[[row]]\ntrace = 'press16.csv'\nvolume = 'block:dims=48'\n",
