@@ -2,7 +2,7 @@
 
 Writes force.png (force over time, contact shaded), lateness.png (histogram of tick start
 lateness, realtime sessions), relax.png (queue depth and relaxation work over time,
-plastic sessions) and prints the paths. Needs python3-matplotlib and python3-h5py.
+plastic sessions). Needs python3-matplotlib and python3-h5py.
 """
 import sys
 
@@ -125,8 +125,7 @@ def main():
             written.append(lateness_plot(f, out_dir, title))
         if int(attr(f, "plastic", 0)) == 1:
             written.append(relax_plot(f, out_dir, title))
-    for path in written:
-        print(path)
+    # hapvox prints each picture's path once it is in place.
 
 
 if __name__ == "__main__":

@@ -101,8 +101,7 @@ def main():
                                               len(done), len(status)), fontsize=9)
     fig.tight_layout()
     path = os.path.join(out_dir, "sweep_peak_force.png")
-    fig.savefig(path, dpi=100)
-    print("wrote " + path)
+    fig.savefig(path, dpi=100)  # hapvox prints the path once it is in place
 
 
 if __name__ == "__main__":

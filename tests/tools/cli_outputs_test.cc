@@ -115,6 +115,15 @@ TEST(CliOutputs, ADeviceNodeAFifoAndAPlantedLinkAreLeftAsTheyWere) {
                    "/link.h5: is a symbolic link: outputs are never written through links "
                    "(remove it, or name the file it points to)");
   EXPECT_TRUE(fs::is_symlink(dir + "/link.h5"));
+  // report's pictures, which matplotlib writes, go through the output module too.
+  ASSERT_EQ(run_hapvox(replay + dir + "/s.h5").exit_code, 0);
+  fs::create_directories(dir + "/plots");
+  fs::create_symlink("../victim.txt", dir + "/plots/force.png");
+  expect_error("report " + dir + "/s.h5 -o " + dir + "/plots",
+               dir +
+                   "/plots/force.png: is a symbolic link: outputs are never written through "
+                   "links (remove it, or name the file it points to)");
+  EXPECT_TRUE(fs::is_symlink(dir + "/plots/force.png"));
   EXPECT_EQ(read_file(dir + "/victim.txt"), "precious");
 }
 
