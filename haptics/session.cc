@@ -367,7 +367,17 @@ std::string attribute_text(hid_t attr) {
     std::string text(H5Tget_size(type.id), '\0');
     H5Aread(attr, type.id, text.data());
     out << text.c_str();
-  } else if (cls == H5T_INTEGER || cls == H5T_FLOAT) {
+  } else if (cls == H5T_INTEGER && H5Tget_sign(type.id) == H5T_SGN_NONE) {
+    // Integers exactly: a mass of 28991029248 units, not 2.8991e+10, which would hide a
+    // drift of thousands.
+    std::vector<unsigned long long> values(static_cast<std::size_t>(std::max<hssize_t>(count, 1)));
+    H5Aread(attr, H5T_NATIVE_ULLONG, values.data());
+    for (std::size_t i = 0; i < values.size(); ++i) out << (i ? " " : "") << values[i];
+  } else if (cls == H5T_INTEGER) {
+    std::vector<long long> values(static_cast<std::size_t>(std::max<hssize_t>(count, 1)));
+    H5Aread(attr, H5T_NATIVE_LLONG, values.data());
+    for (std::size_t i = 0; i < values.size(); ++i) out << (i ? " " : "") << values[i];
+  } else if (cls == H5T_FLOAT) {
     std::vector<double> values(static_cast<std::size_t>(std::max<hssize_t>(count, 1)));
     H5Aread(attr, H5T_NATIVE_DOUBLE, values.data());
     for (std::size_t i = 0; i < values.size(); ++i) out << (i ? " " : "") << values[i];

@@ -373,6 +373,16 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
   ASSERT_EQ(half.exit_code, 0) << half.err;
   EXPECT_NE(half.out.find("conserved exactly"), std::string::npos) << half.out;
   const Result half_info = run("info " + dir + "/half.h5");
+  // Issue 28: info prints the mass in units exactly, as the replay counted it (it printed
+  // 2.8991e+10, hiding any drift below thousands of units).
+  const std::size_t mass_at = half.out.find("  mass             ");
+  ASSERT_NE(mass_at, std::string::npos) << half.out;
+  const std::string from_mass = half.out.substr(mass_at + 19);
+  const std::string initial_units = from_mass.substr(0, from_mass.find(' '));
+  EXPECT_GT(initial_units.size(), 9u) << initial_units;
+  EXPECT_NE(half_info.out.find("summary_initial_mass_units   " + initial_units + "\n"),
+            std::string::npos)
+      << half_info.out;
   EXPECT_NE(half_info.out.find("normal_density_units"), std::string::npos) << half_info.out;
   EXPECT_NE(half_info.out.find("32768"), std::string::npos) << half_info.out;
 }
