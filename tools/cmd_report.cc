@@ -9,10 +9,7 @@
 
 #include <unistd.h>
 
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
-#include <functional>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -20,11 +17,10 @@
 #include <vector>
 
 #include "engine/errors.h"
-#include "engine/io/output_file.h"
-#include "engine/text_file.h"
 #include "haptics/session.h"
 #include "haptics/session_recover.h"
 #include "tools/cli.h"
+#include "tools/drawn_pictures.h"
 #include "tools/report_script.h"
 #include "tools/sweep_report_script.h"
 
@@ -58,40 +54,6 @@ void make_output_dir(const std::string& dir) {
   }
 }
 
-// matplotlib opens its files by name, so it draws into a private folder (mkdtemp: 0700, no
-// one else can plant a link there) inside `out_dir`; each picture then reaches `out_dir`
-// through the output module (engine/io/output_file.h), as every file hapvox writes does:
-// never through a link, never into a special file, never half-written. Prints each picture's
-// path, after `prefix`, in `names`' order.
-int draw_into(const std::string& out_dir, const std::vector<std::string>& names,
-              const std::string& prefix, const std::function<int(const std::string&)>& draw) {
-  for (const std::string& name : names) {
-    engine::io::check_output_target((std::filesystem::path(out_dir) / name).string());
-  }
-  std::string folder = (std::filesystem::path(out_dir) / ".hapvox-report.XXXXXX").string();
-  if (::mkdtemp(folder.data()) == nullptr) {
-    throw InputError(out_dir, "cannot make a folder to draw in (" +
-                                  std::string(std::strerror(errno)) + ")");
-  }
-  struct RemoveFolder {
-    std::string path;
-    ~RemoveFolder() {
-      std::error_code ignored;
-      std::filesystem::remove_all(path, ignored);
-    }
-  } remove_folder{folder};
-  const int status = draw(folder);
-  if (status != 0) return status;
-  for (const std::string& name : names) {
-    const std::filesystem::path drawn = std::filesystem::path(folder) / name;
-    if (!std::filesystem::is_regular_file(std::filesystem::symlink_status(drawn))) continue;
-    const std::string path = (std::filesystem::path(out_dir) / name).string();
-    engine::io::write_text_atomically(path, engine::read_text_file(drawn.string()));
-    std::printf("%s%s\n", prefix.c_str(), path.c_str());
-  }
-  return 0;
-}
-
 // A sweep's directory: its summary.h5 drawn.
 void run_sweep_report(const ReportFlags& f) {
   const std::string summary = (std::filesystem::path(f.session) / "summary.h5").string();
@@ -104,11 +66,10 @@ void run_sweep_report(const ReportFlags& f) {
                              {{summary, "sweep summary"}});
   check_python(f.python);
   make_output_dir(f.out_dir);
-  const int status = draw_into(f.out_dir, {"sweep_peak_force.png"}, "wrote ",
-                               [&](const std::string& folder) {
-                                 return run_python_script(f.python, kSweepReportScript,
-                                                          "sweep_report", {summary, folder});
-                               });
+  const int status =
+      draw_into(f.out_dir, {"sweep_peak_force.png"}, "wrote ", [&](const std::string& folder) {
+        return run_python_script(f.python, kSweepReportScript, "sweep_report", {summary, folder});
+      });
   if (status != 0) {
     throw InputError(summary,
                      "plotting failed (python exit status " + std::to_string(status) + ")");
@@ -139,11 +100,10 @@ void run_report(const ReportFlags& f) {
         "it a complete session)\n",
         f.session.c_str(), recovered.rows, f.session.c_str());
   }
-  const int status =
-      draw_into(f.out_dir, {"force.png", "lateness.png", "relax.png"}, "",
-                [&](const std::string& folder) {
-                  return run_python_script(f.python, kReportScript, "report", {drawn, folder});
-                });
+  const int status = draw_into(
+      f.out_dir, {"force.png", "lateness.png", "relax.png"}, "", [&](const std::string& folder) {
+        return run_python_script(f.python, kReportScript, "report", {drawn, folder});
+      });
   if (drawn != f.session) std::filesystem::remove(drawn);
   if (status != 0) {
     throw InputError(f.session,

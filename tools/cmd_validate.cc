@@ -18,6 +18,7 @@
 #include "engine/io/output_file.h"
 #include "engine/tool_force.h"
 #include "tools/cli.h"
+#include "tools/drawn_pictures.h"
 #include "tools/hertz_plot_script.h"
 
 namespace hapvox::cli {
@@ -106,6 +107,9 @@ bool run_validate_hertz(const ValidateFlags& f) {
   }
   const std::string csv_path = (std::filesystem::path(f.out_dir) / "hertz.csv").string();
   engine::io::check_output_target(csv_path);  // before the minutes of pressing
+  if (f.plot) {
+    engine::io::check_output_target((std::filesystem::path(f.out_dir) / "hertz.png").string());
+  }
   std::ostringstream csv;
   csv << "radius_mm,poisson,voxel_mm,depth_mm,force_hertz_law_n,force_paper_law_n,"
          "force_hertz_n\n";
@@ -152,8 +156,10 @@ bool run_validate_hertz(const ValidateFlags& f) {
   engine::io::write_text_atomically(csv_path, csv.str());
   std::printf("wrote %s\n", csv_path.c_str());
   if (f.plot) {
-    const std::string png = (std::filesystem::path(f.out_dir) / "hertz.png").string();
-    const int status = run_python_script(f.python, kHertzPlotScript, "hertz", {csv_path, png});
+    const int status = draw_into(f.out_dir, {"hertz.png"}, "", [&](const std::string& folder) {
+      const std::string png = (std::filesystem::path(folder) / "hertz.png").string();
+      return run_python_script(f.python, kHertzPlotScript, "hertz", {csv_path, png});
+    });
     if (status != 0) {
       throw InputError("--python", "plotting failed (python exit status " + std::to_string(status) +
                                        "; --no-plot skips it)");

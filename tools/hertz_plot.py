@@ -77,8 +77,7 @@ def main(csv_path, png_path):
     right.set_title(f"nu = 0.3, voxels {finest:g} mm, E = 100 kPa")
     right.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
-    print(png_path)
+    fig.savefig(png_path, dpi=110)  # hapvox prints the path once it is in place
 
 
 if __name__ == "__main__":
