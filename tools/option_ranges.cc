@@ -2,9 +2,9 @@
 //
 // A value outside its option's range is refused while the command line is parsed, before
 // anything is read or written: "--youngs-modulus-pa: must lie in (0, 1e12], not 1e170". The
-// range also shows in each option's help. The bounds are physical or
-// practical (a stiffness no material has, a rate no loop runs at), and wide enough that a
-// force, a tick count or a byte count made from any value in range cannot overflow.
+// range also shows in each option's help. The bounds are physical or practical (a stiffness
+// no material has, a rate no loop runs at), and tight enough that a force, a tick count or a
+// byte count made from any value in range cannot overflow.
 // An option added without a row here makes every command fail at start-up (std::logic_error
 // naming it), so no numeric option goes unchecked.
 
@@ -54,7 +54,7 @@ const std::map<std::string, OptionRange>& option_ranges() {
       {"--relax-voxels-per-tick", {1, 1e9}},
       {"--max-depth-ratio", {0.15, 0.5}},  // validate hertz: Hertz holds to d/R = 0.15
       // The device, the loop and its clock.
-      {"--max-force-n", {0, 1e6, kOpen}},  // tests pass 1e4 for "never clamp"
+      {"--max-force-n", {0, 1e6, kOpen}},  // far above any device: a run that never clamps
       {"--ramp-in-s", {0, 60}},
       {"--rate-hz", {0, 100000, kOpen}},
       {"--max-gap-s", {0, 3600, kOpen}},
