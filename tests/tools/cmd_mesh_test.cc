@@ -229,7 +229,8 @@ TEST(MeshCli, APickedPixelSeedsTheSphereTheImageShowsThere) {
   expect_pick_error(" --pick 600,3",
                     "--pick: pixel '600,3' is outside the 512x512 image (--pick-size)");
   expect_pick_error(" --pick 3,3:0", "--pick: label in '3,3:0' must lie in [1, 16777216]");
-  expect_pick_error(" --pick 3,3 --pick-threshold 1", "--pick-threshold: must lie in (0, 1), not 1");
+  expect_pick_error(" --pick 3,3 --pick-threshold 1",
+                    "--pick-threshold: must lie in (0, 1), not 1");
   expect_pick_error(" --pick 3,3 --pick-view 30",
                     "--pick-view: expected AZIMUTH,ELEVATION in degrees, got '30'");
 }

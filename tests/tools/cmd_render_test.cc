@@ -88,7 +88,8 @@ TEST(RenderCli, BadInputGivesOneLineNamingTheProblemAndCreatesNothing) {
       {"render block -o " + out + " --transfer nope", "nope: not a transfer-function preset"},
       {"render block -o " + out + " --plastic", "--plastic: needs --trace"},
       {"render block -o " + out + " --trace " + dir + "/none.csv", dir + "/none.csv: "},
-      {"render block -o " + out + " --support-mm -1", "--support-mm: must lie in [0, 10000], not -1"},
+      {"render block -o " + out + " --support-mm -1",
+       "--support-mm: must lie in [0, 10000], not -1"},
       {"render block -o " + out + " --every-ticks 0", "--every-ticks: must lie in [1, 1e9], not 0"},
   };
   for (const Case& c : cases) {
