@@ -12,7 +12,6 @@ namespace hapvox::engine {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kMm2PaToNewton = 1e-6;  // 1 Pa x 1 mm^2 = 1e-6 N
 
 // OpenVDB leaf: 8^3 voxels, linear offset (x << 6) | (y << 3) | z.
 constexpr int kLeafDim = 8;
@@ -317,142 +316,6 @@ Vec3d ToolForceModel::refine_contact_origin(const Vec3d& free_mm, const Vec3d& t
   return lo;
 }
 
-Vec3d ToolForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origin_mm,
-                                           const ContactIntegral& contact) const {
-  const double ratio = options_.slip_ratio;
-  const double n_length = contact.area_vector_mm2.norm();
-  if (!(ratio >= 0.0) || std::isinf(ratio) || !(n_length > 0.0)) return origin_mm;
-  // N points from the tool into the material: the direction of a normal press.
-  const Vec3d inward = contact.area_vector_mm2 / n_length;
-  const Vec3d u = x_mm - origin_mm;
-  const double u_normal = std::max(0.0, u.dot(inward));
-  const Vec3d u_tangent = u - u.dot(inward) * inward;
-  const double t_length = u_tangent.norm();
-  const double t_max = ratio * u_normal;
-  if (t_length <= t_max) return origin_mm;                  // sticking
-  return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping
-}
-
-double ToolForceModel::reference_length_mm(const ContactIntegral& contact) const {
-  if (options_.contact_law == ContactLaw::kPaper) return fixed_reference_length_mm_;
-  // Hertz: a normal press gives F = E (|u| / L) |N|; Hertz wants 4/3 E* a |u| with the
-  // contact radius a. So L = 3/4 (E / E*) |N| / a = 3/4 (1 - nu^2) |N| / a.
-  const double a_mm = contact.contact_radius_mm();
-  if (!(a_mm > 0.0)) return 0.0;
-  double factor = hertz_length_factor_;
-  if (tissue_ != nullptr) {
-    const double nu = contact_poisson_ratio(contact);
-    factor = 0.75 * (1.0 - nu * nu);
-  }
-  return factor * contact.area_vector_mm2.norm() / a_mm;
-}
-
-double ToolForceModel::contact_youngs_modulus_pa(const ContactIntegral& contact) const {
-  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
-    return options_.material.youngs_modulus_pa;
-  }
-  return contact.modulus_area_pa_mm2 / contact.contact_area_mm2;
-}
-
-double ToolForceModel::contact_poisson_ratio(const ContactIntegral& contact) const {
-  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
-    return options_.material.poisson_ratio;
-  }
-  return contact.poisson_area_mm2 / contact.contact_area_mm2;
-}
-
-double ToolForceModel::contact_yield_stress_pa(const ContactIntegral& contact) const {
-  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
-    return options_.plastic.yield_stress_pa;
-  }
-  return contact.yield_area_pa_mm2 / contact.contact_area_mm2;
-}
-
-Eigen::Matrix3d ToolForceModel::strain(const Vec3d& u, double reference_length_mm,
-                                       double poisson_ratio) const {
-  const double length = u.norm();
-  if (!(length > 0.0) || !(reference_length_mm > 0.0)) return Eigen::Matrix3d::Zero();
-  const Vec3d dir = u / length;
-  const Eigen::Matrix3d along = dir * dir.transpose();
-  // Compression |u| / L along the push; the Hertz law lets the material expand laterally
-  // by nu (a free surface, not a confined column), the paper's strain does not.
-  const double compression = -length / reference_length_mm;
-  const double lateral = options_.contact_law == ContactLaw::kHertz ? poisson_ratio : 0.0;
-  return compression * (along - lateral * (Eigen::Matrix3d::Identity() - along));
-}
-
-Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u, double reference_length_mm) const {
-  const Eigen::Matrix3d eps = strain(u, reference_length_mm, options_.material.poisson_ratio);
-  return lame_.lambda_pa * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * lame_.mu_pa * eps;
-}
-
-Vec3d ToolForceModel::traction_force_n(const Eigen::Matrix3d& stress,
-                                       const ContactIntegral& contact) {
-  // The tool's outward normal is the inward normal of the material it presses, so the
-  // material pushes on the tool with sigma n dA integrated over the contact.
-  return stress * contact.area_vector_mm2 * kMm2PaToNewton;
-}
-
-Vec3d ToolForceModel::tissue_force_n(const Eigen::Matrix3d& eps, const ContactIntegral& contact) {
-  // sum_k (lambda_k tr(eps) I + 2 mu_k eps) n_k dA_k, the strain being the contact's.
-  return (eps.trace() * contact.lambda_area_vector_pa_mm2 +
-          2.0 * eps * contact.mu_area_vector_pa_mm2) *
-         kMm2PaToNewton;
-}
-
-void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) const {
-  s.surface_change_emitted = false;
-  const double e = contact_youngs_modulus_pa(s.contact);
-  const double length_mm = s.reference_length_mm;
-  const double n_length = s.contact.area_vector_mm2.norm();
-  const Vec3d inward = n_length > 0.0 ? Vec3d(s.contact.area_vector_mm2 / n_length) : Vec3d::Zero();
-  // s = E |u| / L while u pushes into the material; a tool beyond x0 (u . n <= 0) is
-  // separated from the surface and carries no stress.
-  auto stress_measure = [&](const Vec3d& u) {
-    if (!(length_mm > 0.0) || !(u.dot(inward) > 0.0)) return 0.0;
-    return e * u.norm() / length_mm;
-  };
-  auto strain_of = [&](double stress_pa) { return stress_pa / e; };
-  if (!options_.plastic.enabled) {
-    s.zone = PlasticZone::kElastic;
-    s.stress_measure_pa = stress_measure(x_mm - s.contact_origin_mm);
-    s.strain = strain_of(s.stress_measure_pa);
-    return;
-  }
-  const double e_ep = options_.plastic.elastoplastic_modulus_pa;
-  // Hardening modulus H of the plastic strain that gives the tangent slope E_ep.
-  const double hardening = e * e_ep / (e - e_ep);
-  const Vec3d u = x_mm - s.contact_origin_mm;
-  const double u_length = u.norm();
-  const double trial_stress = stress_measure(u);
-  const double previous_stress = s.stress_measure_pa;
-  // Plastic flow loads the material: the tool must be moving into it this tick. Moving
-  // out (or holding still) is elastic unloading, whatever the stress (Prados 2011b, 3).
-  const bool moving_in = (x_mm - s.last_position_mm).dot(inward) > 0.0;
-  if (trial_stress > s.yield_stress_pa && u_length > 0.0 && moving_in) {
-    const Vec3d dir = u / u_length;
-    const double plastic_strain = (trial_stress - s.yield_stress_pa) / (e + hardening);
-    s.yield_stress_pa += hardening * plastic_strain;
-    s.plastic_strain += plastic_strain;
-    // The surface moves permanently: x0 follows the push by the plastic displacement.
-    s.contact_origin_mm += dir * (plastic_strain * length_mm);
-    s.zone = PlasticZone::kPlasticLoad;
-    s.surface_change_emitted = true;
-    s.surface_change.from_mm = s.contact_origin_mm;
-    s.surface_change.position_mm = s.contact_origin_mm;
-    s.surface_change.direction = dir;
-    s.surface_change.radius_mm = tool_radius_mm();
-    ++s.plastic_steps;
-  } else if (s.plastic_strain > 0.0 &&
-             (trial_stress < previous_stress || s.zone == PlasticZone::kPlasticUnload)) {
-    s.zone = PlasticZone::kPlasticUnload;
-  } else if (s.plastic_strain == 0.0) {
-    s.zone = PlasticZone::kElastic;
-  }
-  s.stress_measure_pa = stress_measure(x_mm - s.contact_origin_mm);
-  s.strain = strain_of(s.stress_measure_pa) + s.plastic_strain;
-}
-
 void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
   ++s.steps;
   s.surface_change_emitted = false;
@@ -465,6 +328,10 @@ void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
     s.contact_origin_mm = x_mm;
     s.displacement_mm.setZero();
     s.indentation_mm = 0.0;
+    s.normal.setZero();
+    s.normal_force_n = 0.0;
+    s.friction_force_n.setZero();
+    s.slipping = false;
     s.reference_length_mm = 0.0;
     s.stress_pa.setZero();
     s.force_n.setZero();
@@ -488,36 +355,7 @@ void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
       }
     }
     s.in_contact = true;
-    s.reference_length_mm = reference_length_mm(s.contact);
-    s.contact_origin_mm = slide_contact_origin(x_mm, s.contact_origin_mm, s.contact);
-    apply_plasticity(x_mm, s);
-    s.displacement_mm = x_mm - s.contact_origin_mm;
-    const double n_length = s.contact.area_vector_mm2.norm();
-    s.indentation_mm =
-        n_length > 0.0 ? s.displacement_mm.dot(s.contact.area_vector_mm2) / n_length : 0.0;
-    // Contact only pushes: a tool beyond x0 (u . n <= 0) is off the surface.
-    if (s.indentation_mm > 0.0 && tissue_ == nullptr) {
-      s.stress_pa = stress_pa(s.displacement_mm, s.reference_length_mm);
-      s.force_n = traction_force_n(s.stress_pa, s.contact);
-    } else if (s.indentation_mm > 0.0) {
-      // Each point's own material; the reported stress is the contact's mean material's.
-      const double nu = contact_poisson_ratio(s.contact);
-      const double e = contact_youngs_modulus_pa(s.contact);
-      const Eigen::Matrix3d eps = strain(s.displacement_mm, s.reference_length_mm, nu);
-      const double lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
-      const double mu = e / (2.0 * (1.0 + nu));
-      s.stress_pa = lambda * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * eps;
-      s.force_n = tissue_force_n(eps, s.contact);
-    } else {
-      // Off the surface: no elastic deformation to show either (the FFD reads u).
-      s.displacement_mm.setZero();
-      s.stress_pa.setZero();
-      s.force_n.setZero();
-    }
-    if (!s.force_n.allFinite()) {
-      ++s.nonfinite_forces;
-      s.force_n.setZero();
-    }
+    apply_contact_law(x_mm, s);
   }
   s.last_position_mm = x_mm;
   s.has_position = true;

@@ -1,32 +1,33 @@
 #pragma once
-// Tool force: linear elasticity (Prados, Leon Salas & Torres, "Interactive elastic
-// deformation of 3D images", Eq. 4-8) and, optionally, incremental plasticity (Prados et
-// al., "Volumetric plastic deformation", section 4.2), as pinned down in docs/physics.md:
+// Tool force on a sphere from a density volume (docs/physics.md, "Contact law"):
 //
-//   contact      some density under the tool's surface (Eq. 7), sampled trilinearly;
-//   x0           the last contact-free tool centre, refined by bisection between ticks;
 //   contact      the tool's surface reaches the material's nominal surface (density
 //                surface_density, 1/2 by default: where a voxel ramp crosses half);
-//   x0           the last contact-free tool centre, refined by bisection between ticks;
-//   strain       compression along the push u = x_n - x0 over a reference length L (mm):
-//                  Hertz law (default)  eps = -(|u|/L)(u_hat u_hat^T - nu (I - u_hat u_hat^T))
-//                                       (free lateral expansion), with
-//                                       L = 3/4 (1 - nu^2) |N| / a,  a = sqrt(S / 2 pi)
-//                                       measured from the contact integral, so a sphere
-//                                       on a half-space gives F = 4/3 E* sqrt(R) d^1.5;
-//                  paper law            eps = -(|u|/L) u_hat u_hat^T, L fixed (the radius);
-//   stress       Eq. 6: sigma = lambda tr(eps) I + 2 mu eps   (Pa)
-//   force        Eq. 8 as a surface integral over the tool's contacting surface:
-//                  F = sigma * N,  N = sum_k rho_k n_k dA_k     (mm^2; F in N after 1e-6)
-//                zero when u points out of the material (u . N <= 0): contact pushes only;
-//   plasticity   yield when s = E |u| / L exceeds sigma_f while the tool moves into the
-//                material: x0 moves along the push (return mapping, slope E_ep), sigma_f
-//                hardens, a SurfaceChange is emitted. Moving out is elastic unloading.
+//   x0           the contact origin: the last contact-free tool centre, refined by
+//                bisection between ticks, then moved by friction slip and plastic flow;
+//   N, S         N = sum_k rho_k n_k dA_k (mm^2, into the material), S = sum_k rho_k dA_k
+//                over the tool's surface samples, read trilinearly;
+//   Hertz law (default)
+//     normal     indentation d = (x - x0) . n, n = N / |N|, contact radius a = sqrt(S/2pi):
+//                  F_n = 4/3 E* a d  along -n  (E* = E / (1 - nu^2)),
+//                so a sphere on a half-space gives F = 4/3 E* sqrt(R) d^1.5, and a sphere on
+//                a sphere (a^2 = R* d) Hertz with R*; F_n depends on the position only
+//                through d and a: conservative on any face where a is a function of d;
+//     friction   Coulomb: a tangential spring k_t (Mindlin's 8 G a / (2 - nu) at a = R/2)
+//                from x0, F_t = -k_t u_t, |F_t| <= mu F_n; beyond, x0 slips. The normal
+//                force does not depend on u_t;
+//     plasticity yield when the Hertz mean pressure p = F_n / (pi a^2) = 4 E* d / (3 pi a)
+//                of the trial state exceeds sigma_f (loading is judged by the stress, not
+//                the tool's velocity): x0 moves along n (return mapping, slope E_ep),
+//                sigma_f hardens, a SurfaceChange is emitted.
+//   paper law    Prados, Leon Salas & Torres, "Interactive elastic deformation of 3D images",
+//                Eq. 4-8: eps = -(|u|/L) u_hat u_hat^T with u = x - x0 and L fixed,
+//                sigma = lambda tr(eps) I + 2 mu eps, F = sigma N (1e-6 N per Pa mm^2);
+//                x0 slips tangentially once |u_t| > mu u_n (the force's friction cone);
+//                yield on s = E |u| / L (Prados et al., "Volumetric plastic deformation").
 //   tissue       with a TissueMap (tissue_map.h), each quadrature point has its own
-//                lambda, mu: F = 1e-6 (tr(eps) N_lambda + 2 eps N_mu) with
-//                N_lambda = sum_k lambda_k rho_k n_k dA_k (likewise mu), and nu, E and
-//                sigma_f of the strain, L and the yield rule are the contact's
-//                density-weighted means.
+//                material: the paper law integrates lambda and mu point by point, the
+//                Hertz law uses the contact's density-weighted mean E, nu and sigma_f.
 //
 // Model (const, shared) / state (mutable, one per thread), MuJoCo-style: step() is the
 // readable sequence of stages, each also public for tests and benchmarks. step() does not
@@ -56,7 +57,8 @@ struct SphereTool {
 /// raising sigma_f), elastic unload with slope E.
 struct PlasticMaterial {
   bool enabled = false;
-  double yield_stress_pa = 10e3;  // on the mean contact pressure F / |N| (docs/physics.md)
+  /// sigma_f on the Hertz mean pressure F_n / (pi a^2) (the paper law: on E |u| / L).
+  double yield_stress_pa = 10e3;
   double elastoplastic_modulus_pa = 0.0;
 };
 
@@ -90,11 +92,11 @@ struct ToolForceOptions {
   double sample_spacing_voxels = 1.0;
   int min_surface_samples = 256;
   int max_surface_samples = 4096;
-  /// Stick-slip limit on the contact origin (hapvox's extension, docs/physics.md): x0
-  /// follows the tool tangentially once the tangential displacement exceeds
-  /// slip_ratio x the normal indentation. Infinity keeps the paper's fixed x0 (the command
-  /// line refuses a negative or NaN ratio).
-  double slip_ratio = 0.5;
+  /// Coulomb friction coefficient mu (docs/physics.md, "Friction"): the tangential force is
+  /// at most mu x the normal force; beyond it the contact origin slips. Under the paper law,
+  /// the bound on the force's angle (|u_t| <= mu u_n). Infinity: the contact never slips
+  /// (the paper's fixed x0). The command line refuses a negative or NaN coefficient.
+  double friction_coefficient = 0.5;
   /// Bisection steps that locate x0 between the last free and the first contact position.
   int onset_refinement_steps = 6;
 };
@@ -131,9 +133,13 @@ struct ToolForceState {
   Vec3d contact_origin_mm = Vec3d::Zero();  // x0
 
   // Results of the last step.
-  Vec3d displacement_mm = Vec3d::Zero();  // u = x_n - x0
-  double indentation_mm = 0.0;            // u . n, n = N / |N| (into the material)
-  double reference_length_mm = 0.0;       // L of this step's strain (0 out of contact)
+  Vec3d displacement_mm = Vec3d::Zero();   // u = x_n - x0
+  double indentation_mm = 0.0;             // d = u . n, n = N / |N| (into the material)
+  Vec3d normal = Vec3d::Zero();            // n of this step (zero out of contact)
+  double normal_force_n = 0.0;             // F_n, the magnitude of the force along -n
+  Vec3d friction_force_n = Vec3d::Zero();  // F_t, tangential (Hertz law; zero under the paper's)
+  bool slipping = false;                   // x0 slipped this step
+  double reference_length_mm = 0.0;        // L of this step's strain (0 out of contact)
   Eigen::Matrix3d stress_pa = Eigen::Matrix3d::Zero();
   ContactIntegral contact;
   Vec3d force_n = Vec3d::Zero();
@@ -142,8 +148,8 @@ struct ToolForceState {
   PlasticZone zone = PlasticZone::kNoContact;
   double yield_stress_pa = 0.0;    // current sigma_f (hardened)
   double plastic_strain = 0.0;     // accumulated plastic strain of this contact
-  double strain = 0.0;             // total strain |u|/L + plastic strain
-  double stress_measure_pa = 0.0;  // s = E |u| / L, the scalar the yield rule uses
+  double strain = 0.0;             // total strain: s / E + plastic strain
+  double stress_measure_pa = 0.0;  // s, the scalar the yield rule uses (Hertz: mean pressure)
   bool surface_change_emitted = false;
   SurfaceChange surface_change;
   std::uint64_t plastic_steps = 0;
@@ -204,13 +210,33 @@ class ToolForceModel {
   /// x0 between a contact-free position and a touching one, by bisection.
   Vec3d refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
                               ToolForceState& state) const;
-  /// Moves x0 tangentially so |u_t| <= slip_ratio |u_n| (n from the contact integral).
+  /// The contact law's force at this tool position, after onset: friction slip, plastic
+  /// flow, the force and the measures (engine/contact_laws.cc).
+  void apply_contact_law(const Vec3d& tool_center_mm, ToolForceState& state) const;
+
+  // --- The Hertz law's stages (docs/physics.md, "Contact law", "Friction"). ---
+  /// 4/3 E* a d (N) for indentation d along the contact normal, a = sqrt(S / 2 pi); 0 for
+  /// d <= 0.
+  double hertz_normal_force_n(const ContactIntegral& contact, double indentation_mm) const;
+  /// Hertz mean pressure F_n / (pi a^2) = 4 E* d / (3 pi a) (Pa); 0 for d <= 0 or a = 0.
+  double hertz_mean_pressure_pa(const ContactIntegral& contact, double indentation_mm) const;
+  /// k_t = 8 G a_t / (2 - nu) (N/mm), Mindlin's stiffness of a rigid sphere on an elastic
+  /// half-space, at the fixed contact radius a_t = R / 2: a constant k_t keeps the normal
+  /// force independent of the tangential stretch and a sticking contact conservative.
+  double tangential_stiffness_n_per_mm(const ContactIntegral& contact) const;
+  /// Coulomb slip of the contact origin: x0 moves in the plane normal to `normal` (unit,
+  /// into the material) until k_t |u_t| <= mu F_n; unchanged while that holds (sticking).
+  Vec3d slip_contact_origin(const Vec3d& tool_center_mm, const Vec3d& origin_mm,
+                            const Vec3d& normal, double stiffness_n_per_mm,
+                            double normal_force_n) const;
+  /// The paper law's stick-slip of x0: tangentially until |u_t| <= mu u_n.
   Vec3d slide_contact_origin(const Vec3d& tool_center_mm, const Vec3d& origin_mm,
                              const ContactIntegral& contact) const;
-  /// Return mapping of the incremental plasticity: updates x0, sigma_f and the zone, and
-  /// emits a SurfaceChange on a plastic step. Flow only while the tool moves into the
-  /// material (state.last_position_mm -> tool_center_mm against the contact normal) with u
-  /// pointing in; otherwise elastic. Plasticity disabled: only the zone and measures.
+  /// Return mapping of the incremental plasticity: when the trial stress measure exceeds
+  /// the yield stress, x0 moves into the material until it is back on the (hardened) yield
+  /// surface, and a SurfaceChange is emitted; a falling measure is elastic unloading. The
+  /// measure is the Hertz mean pressure (Hertz law) or E |u| / L (paper law). Plasticity
+  /// disabled: only the zone and measures.
   void apply_plasticity(const Vec3d& tool_center_mm, ToolForceState& state) const;
   /// L of the strain for this contact (mm): the paper's fixed length, or the Hertz law's
   /// 3/4 (1 - nu^2) |N| / a. 0 when the contact has no area vector.
@@ -256,6 +282,13 @@ class ToolForceModel {
   void add_tissue_sample(const Eigen::Vector3f& q_index, const Eigen::Vector3f& normal,
                          ToolForceState& state, ContactIntegral& result) const;
   bool may_touch(const Vec3d& center_index) const;
+  /// The two laws' forces for a contact whose x0 is set (contact_laws.cc).
+  void hertz_force(const Vec3d& tool_center_mm, ToolForceState& state) const;
+  void paper_force(const Vec3d& tool_center_mm, ToolForceState& state) const;
+  /// Moves x0 into the material by the plastic strain of a trial measure above the yield
+  /// stress, hardens sigma_f and emits the SurfaceChange; returns the plastic strain.
+  double flow(double trial_stress_pa, double youngs_modulus_pa, const Vec3d& flow_direction,
+              double displacement_per_strain_mm, ToolForceState& state) const;
 
   const DensityField* field_;
   const TissueMap* tissue_;

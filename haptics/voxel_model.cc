@@ -72,7 +72,7 @@ void VoxelForceStage::write_attributes(SessionWriter& session) const {
   session.set_attribute("contact_law", std::string(engine::contact_law_name(o.contact_law)));
   session.set_attribute("reference_length_mm", model_.fixed_reference_length_mm());
   session.set_attribute("surface_density", o.surface_density);
-  session.set_attribute("slip_ratio", o.slip_ratio);
+  session.set_attribute("friction_coefficient", o.friction_coefficient);
   session.set_attribute("surface_samples", std::int64_t{model_.surface_sample_count()});
 }
 

@@ -217,8 +217,8 @@ engine::ToolForceOptions ForceFlags::resolve() const {
   if (!(surface > 0.0 && surface <= 1.0)) {
     throw InputError("--surface-density", "must lie in (0, 1]");
   }
-  if (!(options.slip_ratio >= 0.0)) {
-    throw InputError("--slip-ratio", "must be zero or positive (inf: the paper's fixed x0)");
+  if (!(options.friction_coefficient >= 0.0)) {
+    throw InputError("--friction", "must be zero or positive (inf: the contact never slips)");
   }
   return options;
 }
@@ -247,10 +247,15 @@ void ForceFlags::add_to(CLI::App& app) {
       },
       "Density of the material's nominal surface, where contact starts, in (0, 1] "
       "(default 0.5; half the normal density when sculpting)");
-  app.add_option("--slip-ratio", options.slip_ratio,
-                 "Contact origin slides once tangential/normal displacement exceeds this "
-                 "(inf: the paper's fixed x0)")
-      ->capture_default_str();
+  CLI::Option* friction =
+      app.add_option("--friction", options.friction_coefficient,
+                     "Coulomb friction coefficient mu: the tangential force is at most mu x the "
+                     "normal force (inf: the contact never slips; docs/physics.md)")
+          ->capture_default_str();
+  // The old name: its ratio bounded the force's angle, tan = |F_t| / |F_n|, which is mu.
+  app.add_option("--slip-ratio", options.friction_coefficient,
+                 "Old name of --friction (the same coefficient)")
+      ->excludes(friction);
 }
 
 namespace {

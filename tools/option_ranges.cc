@@ -47,7 +47,8 @@ const std::map<std::string, OptionRange>& option_ranges() {
       {"--reference-length-mm", {0, 1000}},
       {"--surface-density", {0, 1, kOpen}},
       {"--normal-density", {0, 1, kOpen}},
-      {"--slip-ratio", {0, kInf}},  // inf: the paper's fixed contact origin
+      {"--friction", {0, kInf}},    // inf: a contact that never slips (the paper's x0)
+      {"--slip-ratio", {0, kInf}},  // --friction's old name
       {"--yield-stress-pa", {0, 1e12, kOpen}},
       {"--elastoplastic-modulus-pa", {0, 1e12}},
       {"--relax-tolerance", {0, 10}},

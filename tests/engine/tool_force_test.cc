@@ -171,7 +171,7 @@ TEST(ToolForce, SlidingForceIsBoundedByTheSlipRatioAndOpposesMotion) {
   const DensityField field = make_block(96, 24, Vec3d::Constant(0.5));
   auto slide = [&](double slip_ratio) {
     ToolForceOptions options = options_for(8.0);
-    options.slip_ratio = slip_ratio;
+    options.friction_coefficient = slip_ratio;
     const ToolForceModel model(field, options);
     ToolForceState state = model.make_state();
     const double z_pressed = 23.5 * 0.5 + 4.0 - 1.0;  // 1 mm into the face

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <memory>
 #include <numbers>
+#include <utility>
 #include <vector>
 
 #include "engine/relax.h"
@@ -36,12 +37,13 @@ std::vector<Vec3d> triples(const std::vector<double>& flat) {
 }
 
 // A perfectly plastic lockstep replay of `make` on a clay block of 1 mm voxels.
-SculptTicks sculpt(const TraceMakeOptions& make, double diameter_mm) {
+SculptTicks sculpt(const TraceMakeOptions& make, double diameter_mm, double friction = 0.5) {
   engine::DensityField field = engine::generate_volume("block:dims=64");  // face z = 31.5
   engine::ToolForceOptions options;
   options.tool.diameter_mm = diameter_mm;
   options.plastic.enabled = true;
   options.plastic.yield_stress_pa = 8e3;  // mean contact pressure at which the clay flows
+  options.friction_coefficient = friction;
   const engine::ToolForceModel model(field, options);
   engine::MassGrid mass(field);
   SurfaceChangeChannel channel;
@@ -74,10 +76,12 @@ TEST(SculptForce, PressAndReleaseFlowsOnlyOnTheWayDownAndNeverPullsTheToolIn) {
   make.hold_s = 0.1;
   const SculptTicks run = sculpt(make, 10.0);
   ASSERT_GT(run.sculpt.plastic_events, 100u);
-  // The turning point: the deepest tick.
+  // The turning point: the last tick at the bottom, where the tool starts back up. Loading
+  // is judged by the stress, so the hold at the bottom may still flow while the deletions
+  // of the last plastic ticks reach the field and shrink the contact; the way up never does.
   std::size_t turn = 0;
   for (std::size_t i = 0; i < run.position_mm.size(); ++i) {
-    if (run.position_mm[i].z() < run.position_mm[turn].z()) turn = i;
+    if (run.position_mm[i].z() <= run.position_mm[turn].z()) turn = i;
   }
   ASSERT_GT(turn, 100u);
   double events_after = 0, deleted_before = 0, deleted_after = 0;
@@ -108,39 +112,45 @@ double amplitude_at(const std::vector<double>& x, double f_hz, double rate_hz) {
 }
 
 TEST(SculptForce, SteadyStrokeForceHasNoRippleAtTheVoxelCrossingFrequency) {
-  // 10 mm/s through 1 mm voxels: a voxel crossed every 0.1 s (10 Hz).
-  TraceMakeOptions make;
-  make.shape = TraceShape::kStroke;
-  make.start_mm = Vec3d(12.3, 31.6, 31.5 + 5.0 + 1.0);
-  make.travel_mm = 3.0;  // 2 mm into the clay
-  make.speed_mm_s = 10.0;
-  make.stroke_length_mm = 36.0;
-  const SculptTicks run = sculpt(make, 10.0);
-  const double bottom_z = make.start_mm.z() - make.travel_mm;
-  // The stroke's steady part: at the bottom, after 10 mm of travel (the bow wave has
-  // formed), a whole number of crossing periods (2 s = 20 voxels).
-  std::vector<double> magnitude;
-  double flowing = 0;
-  for (std::size_t i = 0; i < run.position_mm.size(); ++i) {
-    const Vec3d& p = run.position_mm[i];
-    if (std::abs(p.z() - bottom_z) > 1e-9 || p.x() < make.start_mm.x() + 10.0) continue;
-    magnitude.push_back(run.force_n[i].norm());
-    flowing += run.event[i];
-    if (magnitude.size() == 2000) break;
+  // 10 mm/s through 1 mm voxels: a voxel crossed every 0.1 s (10 Hz). Frictionless, |F| is
+  // the normal force the yield rule holds at sigma_f pi a^2; with Coulomb friction the
+  // spring's stick phases lag that force's own ripple and add to |F|'s (measured 0.70 % at
+  // mu = 0, 1.04 % at 0.5, 0.63 % at 1).
+  for (const auto& [friction, bound] : {std::pair{0.0, 0.01}, std::pair{0.5, 0.015}}) {
+    TraceMakeOptions make;
+    make.shape = TraceShape::kStroke;
+    make.start_mm = Vec3d(12.3, 31.6, 31.5 + 5.0 + 1.0);
+    make.travel_mm = 3.0;  // 2 mm into the clay
+    make.speed_mm_s = 10.0;
+    make.stroke_length_mm = 36.0;
+    const SculptTicks run = sculpt(make, 10.0, friction);
+    const double bottom_z = make.start_mm.z() - make.travel_mm;
+    // The stroke's steady part: at the bottom, after 10 mm of travel (the bow wave has
+    // formed), a whole number of crossing periods (2 s = 20 voxels).
+    std::vector<double> magnitude;
+    double flowing = 0;
+    for (std::size_t i = 0; i < run.position_mm.size(); ++i) {
+      const Vec3d& p = run.position_mm[i];
+      if (std::abs(p.z() - bottom_z) > 1e-9 || p.x() < make.start_mm.x() + 10.0) continue;
+      magnitude.push_back(run.force_n[i].norm());
+      flowing += run.event[i];
+      if (magnitude.size() == 2000) break;
+    }
+    ASSERT_EQ(magnitude.size(), 2000u);
+    // The tool ploughs: the clay flows on most ticks of the stroke.
+    EXPECT_GT(flowing, 0.5 * magnitude.size());
+    double mean = 0;
+    for (double f : magnitude) mean += f;
+    mean /= magnitude.size();
+    ASSERT_GT(mean, 0.05);
+    const double ripple = amplitude_at(magnitude, 10.0, 1000.0);
+    std::printf("stroke, mu %.1f: mean %.4f N, 10 Hz amplitude %.5f N (%.2f %%), 20 Hz %.5f N\n",
+                friction, mean, ripple, 100.0 * ripple / mean,
+                amplitude_at(magnitude, 20.0, 1000.0));
+    EXPECT_LE(ripple, bound * mean) << "mu " << friction << ", mean " << mean << " N";
+    // Its harmonics are as small.
+    EXPECT_LE(amplitude_at(magnitude, 20.0, 1000.0), bound * mean) << friction;
   }
-  ASSERT_EQ(magnitude.size(), 2000u);
-  // The tool ploughs: the clay flows on most ticks of the stroke.
-  EXPECT_GT(flowing, 0.5 * magnitude.size());
-  double mean = 0;
-  for (double f : magnitude) mean += f;
-  mean /= magnitude.size();
-  ASSERT_GT(mean, 0.05);
-  const double ripple = amplitude_at(magnitude, 10.0, 1000.0);
-  std::printf("stroke: mean %.4f N, 10 Hz amplitude %.5f N (%.2f %%), 20 Hz %.5f N\n", mean, ripple,
-              100.0 * ripple / mean, amplitude_at(magnitude, 20.0, 1000.0));
-  EXPECT_LE(ripple, 0.01 * mean) << "mean " << mean << " N, 10 Hz amplitude " << ripple << " N";
-  // Its harmonics are as small.
-  EXPECT_LE(amplitude_at(magnitude, 20.0, 1000.0), 0.01 * mean);
 }
 
 }  // namespace

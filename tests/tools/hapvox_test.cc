@@ -344,13 +344,13 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
                        std::string("--normal-density: must lie in (0, 1], not ") + bad);
   }
   // Issue 27: NaN is refused by every floating-point option alike, before its own check.
-  for (const char* flag : {"--normal-density", "--slip-ratio", "-E", "--max-force-n"}) {
+  for (const char* flag : {"--normal-density", "--friction", "-E", "--max-force-n"}) {
     expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
                            "/x.h5 --plastic " + flag + " nan",
                        std::string(flag == std::string("-E") ? "--youngs-modulus-pa" : flag) +
                            ": must be a number, not nan");
   }
-  // Infinities too, written or overflowing, but for --slip-ratio's documented inf.
+  // Infinities too, written or overflowing, but for --friction's documented inf.
   for (const char* flag : {"--normal-density", "-E", "--max-force-n", "--ramp-in-s"}) {
     for (const char* bad : {"inf", "-inf", "1e999", "-1e999"}) {
       expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
@@ -361,9 +361,22 @@ TEST(HapvoxCli, SculptingReplayConservesMassAndWritesTheVolume) {
   }
   for (const char* bad : {"-1", "-inf"}) {
     expect_input_error(
-        "replay " + press_trace() + " --volume block -o " + dir + "/x.h5 --slip-ratio " + bad,
-        std::string("--slip-ratio: must lie in [0, inf], not ") + bad);
+        "replay " + press_trace() + " --volume block -o " + dir + "/x.h5 --friction " + bad,
+        std::string("--friction: must lie in [0, inf], not ") + bad);
   }
+  // Issue 28: --slip-ratio is --friction's old name: the same coefficient, not both at once.
+  expect_input_error("replay " + press_trace() + " --volume block -o " + dir +
+                         "/x.h5 --friction 0.3 --slip-ratio 0.3",
+                     "--friction excludes --slip-ratio (see hapvox --help)");
+  const Result old_name =
+      run("replay " + press_trace() + " --volume block -o " + dir + "/old.h5 --slip-ratio 0.25");
+  ASSERT_EQ(old_name.exit_code, 0) << old_name.err;
+  const std::string old_info = run("info " + dir + "/old.h5").out;
+  const std::size_t friction_at = old_info.find("friction_coefficient ");
+  ASSERT_NE(friction_at, std::string::npos) << old_info;
+  const std::string friction_line =
+      old_info.substr(friction_at, old_info.find('\n', friction_at) - friction_at);
+  EXPECT_EQ(friction_line.substr(friction_line.find_last_of(' ') + 1), "0.25") << friction_line;
   expect_input_error(
       "replay " + press_trace() + " --volume block -o " + dir + "/x.h5 --normal-density 0.5",
       "--normal-density: needs --plastic");

@@ -1,0 +1,276 @@
+// The two contact laws' forces, friction and plasticity, for a contact whose origin x0 is
+// set (tool_force.h; docs/physics.md, "Contact law", "Friction", "Incremental plasticity").
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "engine/tool_force.h"
+
+namespace hapvox::engine {
+namespace {
+
+constexpr double kNewtonPerPaMm2 = 1e-6;  // 1 Pa x 1 mm^2 = 1e-6 N
+
+}  // namespace
+
+void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) const {
+  s.slipping = false;
+  const double n_length = s.contact.area_vector_mm2.norm();
+  s.normal = n_length > 0.0 ? Vec3d(s.contact.area_vector_mm2 / n_length) : Vec3d::Zero();
+  s.reference_length_mm = reference_length_mm(s.contact);
+  if (options_.contact_law == ContactLaw::kHertz) {
+    hertz_force(x_mm, s);
+  } else {
+    paper_force(x_mm, s);
+  }
+  if (!s.force_n.allFinite()) {
+    ++s.nonfinite_forces;
+    s.force_n.setZero();
+  }
+  if (s.surface_change_emitted) {
+    // The tool centre on the new surface, after this step's slip.
+    s.surface_change.from_mm = s.contact_origin_mm;
+    s.surface_change.position_mm = s.contact_origin_mm;
+  }
+}
+
+void ToolForceModel::hertz_force(const Vec3d& x_mm, ToolForceState& s) const {
+  // Plastic flow first (it moves x0 along n only), then the normal force of the settled
+  // indentation, then friction bounded by that normal force.
+  apply_plasticity(x_mm, s);
+  const Vec3d& n = s.normal;
+  s.normal_force_n = hertz_normal_force_n(s.contact, (x_mm - s.contact_origin_mm).dot(n));
+  const double k_t = tangential_stiffness_n_per_mm(s.contact);
+  const Vec3d origin = slip_contact_origin(x_mm, s.contact_origin_mm, n, k_t, s.normal_force_n);
+  s.slipping = origin != s.contact_origin_mm;
+  s.contact_origin_mm = origin;
+  const Vec3d u = x_mm - origin;
+  s.indentation_mm = u.dot(n);  // a slip is tangential: d is unchanged
+  if (!(s.indentation_mm > 0.0)) {
+    // Off the surface: no force, and no elastic deformation to show (the FFD reads u).
+    s.displacement_mm.setZero();
+    s.stress_pa.setZero();
+    s.friction_force_n.setZero();
+    s.force_n.setZero();
+    return;
+  }
+  s.displacement_mm = u;
+  s.friction_force_n = -k_t * (u - s.indentation_mm * n);
+  s.force_n = -s.normal_force_n * n + s.friction_force_n;
+  // The contact's mean pressure as a uniaxial stress along n (what the yield rule reads).
+  s.stress_pa = -hertz_mean_pressure_pa(s.contact, s.indentation_mm) * (n * n.transpose());
+}
+
+void ToolForceModel::paper_force(const Vec3d& x_mm, ToolForceState& s) const {
+  s.contact_origin_mm = slide_contact_origin(x_mm, s.contact_origin_mm, s.contact);
+  apply_plasticity(x_mm, s);
+  s.displacement_mm = x_mm - s.contact_origin_mm;
+  s.indentation_mm = s.displacement_mm.dot(s.normal);
+  if (!(s.indentation_mm > 0.0)) {
+    // Contact only pushes: a tool beyond x0 (u . n <= 0) is off the surface.
+    s.displacement_mm.setZero();
+    s.stress_pa.setZero();
+    s.force_n.setZero();
+  } else if (tissue_ == nullptr) {
+    s.stress_pa = stress_pa(s.displacement_mm, s.reference_length_mm);
+    s.force_n = traction_force_n(s.stress_pa, s.contact);
+  } else {
+    // Each point's own material; the reported stress is the contact's mean material's.
+    const double nu = contact_poisson_ratio(s.contact);
+    const double e = contact_youngs_modulus_pa(s.contact);
+    const Eigen::Matrix3d eps = strain(s.displacement_mm, s.reference_length_mm, nu);
+    const double lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    const double mu = e / (2.0 * (1.0 + nu));
+    s.stress_pa = lambda * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * eps;
+    s.force_n = tissue_force_n(eps, s.contact);
+  }
+  // The paper's force is one vector along -u: report its parts along and across n.
+  s.normal_force_n = std::max(0.0, -s.force_n.dot(s.normal));
+  s.friction_force_n = s.force_n - s.force_n.dot(s.normal) * s.normal;
+}
+
+double ToolForceModel::hertz_normal_force_n(const ContactIntegral& contact,
+                                            double indentation_mm) const {
+  if (!(indentation_mm > 0.0)) return 0.0;
+  const double nu = contact_poisson_ratio(contact);
+  const double e_star = contact_youngs_modulus_pa(contact) / (1.0 - nu * nu);
+  return 4.0 / 3.0 * e_star * contact.contact_radius_mm() * indentation_mm * kNewtonPerPaMm2;
+}
+
+double ToolForceModel::hertz_mean_pressure_pa(const ContactIntegral& contact,
+                                              double indentation_mm) const {
+  const double a_mm = contact.contact_radius_mm();
+  if (!(indentation_mm > 0.0) || !(a_mm > 0.0)) return 0.0;
+  const double nu = contact_poisson_ratio(contact);
+  const double e_star = contact_youngs_modulus_pa(contact) / (1.0 - nu * nu);
+  return 4.0 * e_star * indentation_mm / (3.0 * std::numbers::pi * a_mm);
+}
+
+double ToolForceModel::tangential_stiffness_n_per_mm(const ContactIntegral& contact) const {
+  const double nu = contact_poisson_ratio(contact);
+  const double shear_pa = contact_youngs_modulus_pa(contact) / (2.0 * (1.0 + nu));
+  const double a_mm = 0.5 * tool_radius_mm();
+  return 8.0 * shear_pa * a_mm / (2.0 - nu) * kNewtonPerPaMm2;
+}
+
+Vec3d ToolForceModel::slip_contact_origin(const Vec3d& x_mm, const Vec3d& origin_mm,
+                                          const Vec3d& normal, double stiffness_n_per_mm,
+                                          double normal_force_n) const {
+  const double mu = options_.friction_coefficient;
+  if (std::isinf(mu) || !(stiffness_n_per_mm > 0.0)) return origin_mm;  // never slips
+  const Vec3d u = x_mm - origin_mm;
+  const Vec3d u_tangent = u - u.dot(normal) * normal;
+  const double t_length = u_tangent.norm();
+  const double t_max = mu * std::max(0.0, normal_force_n) / stiffness_n_per_mm;
+  if (t_length <= t_max) return origin_mm;                  // sticking
+  return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping: on the bound
+}
+
+Vec3d ToolForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origin_mm,
+                                           const ContactIntegral& contact) const {
+  const double ratio = options_.friction_coefficient;
+  const double n_length = contact.area_vector_mm2.norm();
+  if (!(ratio >= 0.0) || std::isinf(ratio) || !(n_length > 0.0)) return origin_mm;
+  // N points from the tool into the material: the direction of a normal press.
+  const Vec3d inward = contact.area_vector_mm2 / n_length;
+  const Vec3d u = x_mm - origin_mm;
+  const double u_normal = std::max(0.0, u.dot(inward));
+  const Vec3d u_tangent = u - u.dot(inward) * inward;
+  const double t_length = u_tangent.norm();
+  const double t_max = ratio * u_normal;
+  if (t_length <= t_max) return origin_mm;                  // sticking
+  return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping
+}
+
+double ToolForceModel::reference_length_mm(const ContactIntegral& contact) const {
+  if (options_.contact_law == ContactLaw::kPaper) return fixed_reference_length_mm_;
+  // Hertz: a normal press gives F = E (|u| / L) |N|; Hertz wants 4/3 E* a |u| with the
+  // contact radius a. So L = 3/4 (E / E*) |N| / a = 3/4 (1 - nu^2) |N| / a.
+  const double a_mm = contact.contact_radius_mm();
+  if (!(a_mm > 0.0)) return 0.0;
+  double factor = hertz_length_factor_;
+  if (tissue_ != nullptr) {
+    const double nu = contact_poisson_ratio(contact);
+    factor = 0.75 * (1.0 - nu * nu);
+  }
+  return factor * contact.area_vector_mm2.norm() / a_mm;
+}
+
+double ToolForceModel::contact_youngs_modulus_pa(const ContactIntegral& contact) const {
+  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
+    return options_.material.youngs_modulus_pa;
+  }
+  return contact.modulus_area_pa_mm2 / contact.contact_area_mm2;
+}
+
+double ToolForceModel::contact_poisson_ratio(const ContactIntegral& contact) const {
+  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
+    return options_.material.poisson_ratio;
+  }
+  return contact.poisson_area_mm2 / contact.contact_area_mm2;
+}
+
+double ToolForceModel::contact_yield_stress_pa(const ContactIntegral& contact) const {
+  if (tissue_ == nullptr || !(contact.contact_area_mm2 > 0.0)) {
+    return options_.plastic.yield_stress_pa;
+  }
+  return contact.yield_area_pa_mm2 / contact.contact_area_mm2;
+}
+
+Eigen::Matrix3d ToolForceModel::strain(const Vec3d& u, double reference_length_mm,
+                                       double poisson_ratio) const {
+  const double length = u.norm();
+  if (!(length > 0.0) || !(reference_length_mm > 0.0)) return Eigen::Matrix3d::Zero();
+  const Vec3d dir = u / length;
+  const Eigen::Matrix3d along = dir * dir.transpose();
+  // Compression |u| / L along the push; the Hertz law lets the material expand laterally
+  // by nu (a free surface, not a confined column), the paper's strain does not.
+  const double compression = -length / reference_length_mm;
+  const double lateral = options_.contact_law == ContactLaw::kHertz ? poisson_ratio : 0.0;
+  return compression * (along - lateral * (Eigen::Matrix3d::Identity() - along));
+}
+
+Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u, double reference_length_mm) const {
+  const Eigen::Matrix3d eps = strain(u, reference_length_mm, options_.material.poisson_ratio);
+  return lame_.lambda_pa * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * lame_.mu_pa * eps;
+}
+
+Vec3d ToolForceModel::traction_force_n(const Eigen::Matrix3d& stress,
+                                       const ContactIntegral& contact) {
+  // The tool's outward normal is the inward normal of the material it presses, so the
+  // material pushes on the tool with sigma n dA integrated over the contact.
+  return stress * contact.area_vector_mm2 * kNewtonPerPaMm2;
+}
+
+Vec3d ToolForceModel::tissue_force_n(const Eigen::Matrix3d& eps, const ContactIntegral& contact) {
+  // sum_k (lambda_k tr(eps) I + 2 mu_k eps) n_k dA_k, the strain being the contact's.
+  return (eps.trace() * contact.lambda_area_vector_pa_mm2 +
+          2.0 * eps * contact.mu_area_vector_pa_mm2) *
+         kNewtonPerPaMm2;
+}
+
+void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) const {
+  const double e = contact_youngs_modulus_pa(s.contact);
+  const bool hertz = options_.contact_law == ContactLaw::kHertz;
+  const Vec3d& n = s.normal;
+  // The yield rule's measure for origin x0: the Hertz mean pressure of the indentation, or
+  // the paper's E |u| / L; zero for a tool beyond x0 (u . n <= 0), which carries no stress.
+  auto measure = [&](const Vec3d& origin_mm) {
+    const Vec3d u = x_mm - origin_mm;
+    const double d = u.dot(n);
+    if (!(d > 0.0)) return 0.0;
+    if (hertz) return hertz_mean_pressure_pa(s.contact, d);
+    return s.reference_length_mm > 0.0 ? e * u.norm() / s.reference_length_mm : 0.0;
+  };
+  const double trial_stress = measure(s.contact_origin_mm);
+  if (!options_.plastic.enabled) {
+    s.zone = PlasticZone::kElastic;
+    s.stress_measure_pa = trial_stress;
+    s.strain = trial_stress / e;
+    return;
+  }
+  const double previous_stress = s.stress_measure_pa;
+  // Loading is judged by the stress, not by the tool's velocity: a trial state beyond the
+  // yield surface flows whichever way the tool moved (a sideways stroke loads too); a
+  // falling measure is elastic unloading.
+  if (trial_stress > s.yield_stress_pa) {
+    if (hertz) {
+      // p = 4 E* d / (3 pi a) is linear in d at this tick's a: a strain step of the
+      // measure, p / E, is E (3 pi a / 4 E*) = 3 pi a (1 - nu^2) / 4 of indentation.
+      const double nu = contact_poisson_ratio(s.contact);
+      flow(trial_stress, e, n,
+           0.75 * std::numbers::pi * s.contact.contact_radius_mm() * (1.0 - nu * nu), s);
+    } else {
+      const Vec3d u = x_mm - s.contact_origin_mm;
+      flow(trial_stress, e, u.normalized(), s.reference_length_mm, s);
+    }
+  } else if (s.plastic_strain > 0.0 &&
+             (trial_stress < previous_stress || s.zone == PlasticZone::kPlasticUnload)) {
+    s.zone = PlasticZone::kPlasticUnload;
+  } else if (s.plastic_strain == 0.0) {
+    s.zone = PlasticZone::kElastic;
+  }
+  s.stress_measure_pa = measure(s.contact_origin_mm);
+  s.strain = s.stress_measure_pa / e + s.plastic_strain;
+}
+
+double ToolForceModel::flow(double trial_stress_pa, double e_pa, const Vec3d& direction,
+                            double displacement_per_strain_mm, ToolForceState& s) const {
+  const double e_ep = options_.plastic.elastoplastic_modulus_pa;
+  // Hardening modulus H of the plastic strain that gives the tangent slope E_ep.
+  const double hardening = e_pa * e_ep / (e_pa - e_ep);
+  const double plastic_strain = (trial_stress_pa - s.yield_stress_pa) / (e_pa + hardening);
+  s.yield_stress_pa += hardening * plastic_strain;
+  s.plastic_strain += plastic_strain;
+  // The surface moves permanently: x0 follows the push by the plastic displacement.
+  s.contact_origin_mm += direction * (plastic_strain * displacement_per_strain_mm);
+  s.zone = PlasticZone::kPlasticLoad;
+  s.surface_change_emitted = true;
+  s.surface_change.direction = direction;
+  s.surface_change.radius_mm = tool_radius_mm();
+  ++s.plastic_steps;
+  return plastic_strain;
+}
+
+}  // namespace hapvox::engine
