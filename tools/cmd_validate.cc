@@ -20,6 +20,7 @@
 #include "tools/cli.h"
 #include "tools/drawn_pictures.h"
 #include "tools/hertz_plot_script.h"
+#include "tools/validate_contact.h"
 
 namespace hapvox::cli {
 namespace {
@@ -196,6 +197,7 @@ void add_validate_command(CLI::App& app) {
       throw ValidationFailed("the contact law misses Hertz (see the table)");
     }
   });
+  add_validate_contact(*validate);
 }
 
 }  // namespace hapvox::cli

@@ -2,9 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "test_data.h"
 
@@ -43,6 +48,61 @@ TEST(ValidateCli, HertzWritesTheComparisonAndPasses) {
   EXPECT_GT(rows, 100);
   EXPECT_GT(paper_far_off, 10);
   EXPECT_FALSE(std::filesystem::exists(dir + "/hertz.csv.partial"));
+}
+
+// Issue 28: validate contact runs the audit's loops, a friction cycle and a 45-degree
+// press, and its CSV shows what it claims: each loop of the Hertz law ends at the work it
+// began with, the seed's law (force along -u) does not, and F_z stays put while stroking.
+TEST(ValidateCli, ContactChecksEnergyFrictionAndTheObliquePress) {
+  const std::string dir = scratch_dir() + "/contact";
+  const CommandResult r = run_hapvox("validate contact -o " + dir + " --no-plot");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("verdict: every check holds\n"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("FAIL"), std::string::npos) << r.out;
+  std::ifstream csv(dir + "/contact.csv");
+  std::string header;
+  std::getline(csv, header);
+  ASSERT_EQ(header, "case,tick,x_mm,y_mm,z_mm,force_x_n,force_z_n,normal_force_n,hertz_n,work_mj");
+  struct Row {
+    double x, z, fx, fz, work;
+  };
+  std::map<std::string, std::vector<Row>> cases;
+  for (std::string line; std::getline(csv, line);) {
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream fields(line);
+    std::string name;
+    double tick, y, normal, hertz;
+    Row row{};
+    fields >> name >> tick >> row.x >> y >> row.z >> row.fx >> row.fz >> normal >> hertz >>
+        row.work;
+    ASSERT_TRUE(fields) << line;
+    cases[name].push_back(row);
+  }
+  // The loops: 0.8 mm off the axis, then circles of 628 ticks (r = 0.5 mm at 5 um a tick).
+  auto loop_works = [&](const std::string& law) {
+    const double press_in = cases["energy_" + law + "_press"].back().work;
+    const std::vector<Row>& loops = cases["energy_" + law + "_loops"];
+    EXPECT_GT(loops.size(), 3u * 628u) << law;
+    std::vector<double> per_loop;
+    for (std::size_t end = loops.size() - 1; end >= 628 && per_loop.size() < 3; end -= 628) {
+      per_loop.push_back((loops[end].work - loops[end - 628].work) / press_in);
+    }
+    return per_loop;
+  };
+  for (double w : loop_works("hertz")) EXPECT_LE(std::abs(w), 0.01);
+  for (double w : loop_works("paper")) EXPECT_GT(std::abs(w), 0.05);
+  // The friction cycle at the bottom of its press: F_z as at rest, |F_x| within mu F_z.
+  const std::vector<Row>& stroke = cases["friction"];
+  ASSERT_GT(stroke.size(), 1000u);
+  double bottom = stroke.front().z;
+  for (const Row& row : stroke) bottom = std::min(bottom, row.z);
+  const Row* at_rest = nullptr;
+  for (const Row& row : stroke) {
+    if (row.z > bottom + 1e-9) continue;
+    if (at_rest == nullptr) at_rest = &row;
+    EXPECT_NEAR(row.fz, at_rest->fz, 0.005 * at_rest->fz);
+    EXPECT_LE(std::abs(row.fx), 0.5 * row.fz * 1.005);
+  }
 }
 
 TEST(ValidateCli, BadListsAreOneLineErrors) {
