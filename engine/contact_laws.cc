@@ -11,13 +11,22 @@ namespace hapvox::engine {
 namespace {
 
 constexpr double kNewtonPerPaMm2 = 1e-6;  // 1 Pa x 1 mm^2 = 1e-6 N
+// |N| / S below which N has no direction: a cap of the sphere's surface outside the
+// material of less than 1 % of its radius in height (|N| / S = delta / 2R near burial).
+constexpr double kDefinedNormalShare = 0.005;
 
 }  // namespace
 
 void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) const {
   s.slipping = false;
+  // The contact normal, where N says where the material is: a tool nearly buried in
+  // uniform material has N ~ 0 (all round, the normals cancel) and a direction that is
+  // only the quadrature's residue. There it keeps the last normal it had, so its force
+  // stays continuous and its origin slips in a plane that means something.
   const double n_length = s.contact.area_vector_mm2.norm();
-  s.normal = n_length > 0.0 ? Vec3d(s.contact.area_vector_mm2 / n_length) : Vec3d::Zero();
+  if (n_length > kDefinedNormalShare * s.contact.contact_area_mm2) {
+    s.normal = s.contact.area_vector_mm2 / n_length;
+  }
   s.reference_length_mm = reference_length_mm(s.contact);
   if (options_.contact_law == ContactLaw::kHertz) {
     hertz_force(x_mm, s);
@@ -119,6 +128,9 @@ Vec3d ToolForceModel::slip_contact_origin(const Vec3d& x_mm, const Vec3d& origin
                                           double normal_force_n) const {
   const double mu = options_.friction_coefficient;
   if (std::isinf(mu) || !(stiffness_n_per_mm > 0.0)) return origin_mm;  // never slips
+  // No contact normal (a tool buried in uniform material, N = 0): no plane to slip in, and
+  // the origin stays where the tool left the surface.
+  if (!(normal.squaredNorm() > 0.0)) return origin_mm;
   const Vec3d u = x_mm - origin_mm;
   const Vec3d u_tangent = u - u.dot(normal) * normal;
   const double t_length = u_tangent.norm();

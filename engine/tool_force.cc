@@ -340,7 +340,9 @@ void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
     s.stress_measure_pa = 0.0;
   } else {
     if (!s.in_contact) {
-      // A new contact: elastic again, with the material's own yield stress.
+      // A new contact: elastic again, with the material's own yield stress, and no
+      // normal until its contact integral gives one.
+      s.normal.setZero();
       s.plastic_strain = 0.0;
       s.stress_measure_pa = 0.0;
       s.yield_stress_pa = contact_yield_stress_pa(s.contact);

@@ -192,6 +192,24 @@ TEST(ContactEnergy, SlidingKeepsTheNormalForceAndSitsOnTheCoulombBound) {
   }
 }
 
+// A tool pushed right under the face, where uniform material all round gives N = 0 and no
+// contact normal, keeps its contact origin: on the way back it feels what it felt on the
+// way in (the slip rule has no plane to slip in there).
+TEST(ContactEnergy, ABuriedToolKeepsItsOriginAndFeelsTheSameOnTheWayOut) {
+  const double h = 0.5;
+  const DensityField field = energy_block(48, 40, h);
+  const double top = face_height_mm(40, h) + kToolRadiusMm;
+  const ToolForceModel model(field, hertz_options(0.5));
+  Stroke stroke(model, Vec3d(12.1, 11.9, top + 0.5));
+  stroke.line_to(Vec3d(12.1, 11.9, top - 1.0), 2.0);
+  const double on_the_way_in_n = stroke.state.force_n.z();
+  ASSERT_GT(on_the_way_in_n, 0.1);
+  stroke.line_to(Vec3d(12.1, 11.9, top - 10.0), 2.0);  // the whole sphere under the face
+  EXPECT_EQ(stroke.state.contact.samples_in_contact, model.surface_sample_count());
+  stroke.line_to(Vec3d(12.1, 11.9, top - 1.0), 2.0);
+  EXPECT_NEAR(stroke.state.force_n.z(), on_the_way_in_n, 1e-3 * on_the_way_in_n);
+}
+
 // A press at 45 degrees into the face: friction takes the tangential part, and the normal
 // force is Hertz's for the depth below the nominal surface.
 TEST(ContactEnergy, AnObliquePressFeelsHertzAlongTheNormal) {
