@@ -133,9 +133,11 @@ struct ToolForceState {
   Vec3d contact_origin_mm = Vec3d::Zero();  // x0
 
   // Results of the last step.
-  Vec3d displacement_mm = Vec3d::Zero();   // u = x_n - x0
-  double indentation_mm = 0.0;             // d = u . n, n = N / |N| (into the material)
-  Vec3d normal = Vec3d::Zero();            // n of this step (zero out of contact)
+  Vec3d displacement_mm = Vec3d::Zero();  // u = x_n - x0
+  double indentation_mm = 0.0;            // d = u . n, n = N / |N| (into the material)
+  // n of this step: N / |N|, kept from the last step where N had a direction (a buried
+  // tool's N is the quadrature's residue); zero out of contact.
+  Vec3d normal = Vec3d::Zero();
   double normal_force_n = 0.0;             // F_n, the magnitude of the force along -n
   Vec3d friction_force_n = Vec3d::Zero();  // F_t, tangential (Hertz law; zero under the paper's)
   bool slipping = false;                   // x0 slipped this step
