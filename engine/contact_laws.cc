@@ -15,6 +15,16 @@ constexpr double kNewtonPerPaMm2 = 1e-6;  // 1 Pa x 1 mm^2 = 1e-6 N
 // material of less than 1 % of its radius in height (|N| / S = delta / 2R near burial).
 constexpr double kDefinedNormalShare = 0.005;
 
+// Both laws' stick-slip: x0 moves in the plane normal to `normal` (unit) until the tool's
+// tangential displacement from it is at most t_max_mm; unchanged while it is (sticking).
+Vec3d slip_across(const Vec3d& x_mm, const Vec3d& origin_mm, const Vec3d& normal, double t_max_mm) {
+  const Vec3d u = x_mm - origin_mm;
+  const Vec3d u_tangent = u - u.dot(normal) * normal;
+  const double t_length = u_tangent.norm();
+  if (t_length <= t_max_mm) return origin_mm;                  // sticking
+  return origin_mm + u_tangent * (1.0 - t_max_mm / t_length);  // slipping: on the bound
+}
+
 }  // namespace
 
 void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) const {
@@ -27,7 +37,6 @@ void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) con
   if (n_length > kDefinedNormalShare * s.contact.contact_area_mm2) {
     s.normal = s.contact.area_vector_mm2 / n_length;
   }
-  s.reference_length_mm = reference_length_mm(s.contact);
   if (options_.contact_law == ContactLaw::kHertz) {
     hertz_force(x_mm, s);
   } else {
@@ -72,6 +81,7 @@ void ToolForceModel::hertz_force(const Vec3d& x_mm, ToolForceState& s) const {
 }
 
 void ToolForceModel::paper_force(const Vec3d& x_mm, ToolForceState& s) const {
+  s.reference_length_mm = fixed_reference_length_mm_;
   s.contact_origin_mm = slide_contact_origin(x_mm, s.contact_origin_mm, s.contact);
   apply_plasticity(x_mm, s);
   s.displacement_mm = x_mm - s.contact_origin_mm;
@@ -88,7 +98,7 @@ void ToolForceModel::paper_force(const Vec3d& x_mm, ToolForceState& s) const {
     // Each point's own material; the reported stress is the contact's mean material's.
     const double nu = contact_poisson_ratio(s.contact);
     const double e = contact_youngs_modulus_pa(s.contact);
-    const Eigen::Matrix3d eps = strain(s.displacement_mm, s.reference_length_mm, nu);
+    const Eigen::Matrix3d eps = strain(s.displacement_mm, s.reference_length_mm);
     const double lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     const double mu = e / (2.0 * (1.0 + nu));
     s.stress_pa = lambda * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * eps;
@@ -110,10 +120,9 @@ double ToolForceModel::hertz_normal_force_n(const ContactIntegral& contact,
 double ToolForceModel::hertz_mean_pressure_pa(const ContactIntegral& contact,
                                               double indentation_mm) const {
   const double a_mm = contact.contact_radius_mm();
-  if (!(indentation_mm > 0.0) || !(a_mm > 0.0)) return 0.0;
-  const double nu = contact_poisson_ratio(contact);
-  const double e_star = contact_youngs_modulus_pa(contact) / (1.0 - nu * nu);
-  return 4.0 * e_star * indentation_mm / (3.0 * std::numbers::pi * a_mm);
+  if (!(a_mm > 0.0)) return 0.0;
+  const double area_mm2 = std::numbers::pi * a_mm * a_mm;
+  return hertz_normal_force_n(contact, indentation_mm) / (area_mm2 * kNewtonPerPaMm2);
 }
 
 double ToolForceModel::tangential_stiffness_n_per_mm(const ContactIntegral& contact) const {
@@ -131,12 +140,8 @@ Vec3d ToolForceModel::slip_contact_origin(const Vec3d& x_mm, const Vec3d& origin
   // No contact normal (a tool buried in uniform material, N = 0): no plane to slip in, and
   // the origin stays where the tool left the surface.
   if (!(normal.squaredNorm() > 0.0)) return origin_mm;
-  const Vec3d u = x_mm - origin_mm;
-  const Vec3d u_tangent = u - u.dot(normal) * normal;
-  const double t_length = u_tangent.norm();
-  const double t_max = mu * std::max(0.0, normal_force_n) / stiffness_n_per_mm;
-  if (t_length <= t_max) return origin_mm;                  // sticking
-  return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping: on the bound
+  return slip_across(x_mm, origin_mm, normal,
+                     mu * std::max(0.0, normal_force_n) / stiffness_n_per_mm);
 }
 
 Vec3d ToolForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origin_mm,
@@ -146,27 +151,8 @@ Vec3d ToolForceModel::slide_contact_origin(const Vec3d& x_mm, const Vec3d& origi
   if (!(ratio >= 0.0) || std::isinf(ratio) || !(n_length > 0.0)) return origin_mm;
   // N points from the tool into the material: the direction of a normal press.
   const Vec3d inward = contact.area_vector_mm2 / n_length;
-  const Vec3d u = x_mm - origin_mm;
-  const double u_normal = std::max(0.0, u.dot(inward));
-  const Vec3d u_tangent = u - u.dot(inward) * inward;
-  const double t_length = u_tangent.norm();
-  const double t_max = ratio * u_normal;
-  if (t_length <= t_max) return origin_mm;                  // sticking
-  return origin_mm + u_tangent * (1.0 - t_max / t_length);  // slipping
-}
-
-double ToolForceModel::reference_length_mm(const ContactIntegral& contact) const {
-  if (options_.contact_law == ContactLaw::kPaper) return fixed_reference_length_mm_;
-  // Hertz: a normal press gives F = E (|u| / L) |N|; Hertz wants 4/3 E* a |u| with the
-  // contact radius a. So L = 3/4 (E / E*) |N| / a = 3/4 (1 - nu^2) |N| / a.
-  const double a_mm = contact.contact_radius_mm();
-  if (!(a_mm > 0.0)) return 0.0;
-  double factor = hertz_length_factor_;
-  if (tissue_ != nullptr) {
-    const double nu = contact_poisson_ratio(contact);
-    factor = 0.75 * (1.0 - nu * nu);
-  }
-  return factor * contact.area_vector_mm2.norm() / a_mm;
+  return slip_across(x_mm, origin_mm, inward,
+                     ratio * std::max(0.0, (x_mm - origin_mm).dot(inward)));
 }
 
 double ToolForceModel::contact_youngs_modulus_pa(const ContactIntegral& contact) const {
@@ -190,21 +176,16 @@ double ToolForceModel::contact_yield_stress_pa(const ContactIntegral& contact) c
   return contact.yield_area_pa_mm2 / contact.contact_area_mm2;
 }
 
-Eigen::Matrix3d ToolForceModel::strain(const Vec3d& u, double reference_length_mm,
-                                       double poisson_ratio) const {
+Eigen::Matrix3d ToolForceModel::strain(const Vec3d& u, double reference_length_mm) {
   const double length = u.norm();
   if (!(length > 0.0) || !(reference_length_mm > 0.0)) return Eigen::Matrix3d::Zero();
+  // Compression |u| / L along the push, no lateral strain (the seed's uniaxial strain).
   const Vec3d dir = u / length;
-  const Eigen::Matrix3d along = dir * dir.transpose();
-  // Compression |u| / L along the push; the Hertz law lets the material expand laterally
-  // by nu (a free surface, not a confined column), the paper's strain does not.
-  const double compression = -length / reference_length_mm;
-  const double lateral = options_.contact_law == ContactLaw::kHertz ? poisson_ratio : 0.0;
-  return compression * (along - lateral * (Eigen::Matrix3d::Identity() - along));
+  return -length / reference_length_mm * (dir * dir.transpose());
 }
 
 Eigen::Matrix3d ToolForceModel::stress_pa(const Vec3d& u, double reference_length_mm) const {
-  const Eigen::Matrix3d eps = strain(u, reference_length_mm, options_.material.poisson_ratio);
+  const Eigen::Matrix3d eps = strain(u, reference_length_mm);
   return lame_.lambda_pa * eps.trace() * Eigen::Matrix3d::Identity() + 2.0 * lame_.mu_pa * eps;
 }
 
@@ -247,16 +228,13 @@ void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) cons
   // yield surface flows whichever way the tool moved (a sideways stroke loads too); a
   // falling measure is elastic unloading.
   if (trial_stress > s.yield_stress_pa) {
-    if (hertz) {
-      // p = 4 E* d / (3 pi a) is linear in d at this tick's a: a strain step of the
-      // measure, p / E, is E (3 pi a / 4 E*) = 3 pi a (1 - nu^2) / 4 of indentation.
-      const double nu = contact_poisson_ratio(s.contact);
-      flow(trial_stress, e, n,
-           0.75 * std::numbers::pi * s.contact.contact_radius_mm() * (1.0 - nu * nu), s);
-    } else {
-      const Vec3d u = x_mm - s.contact_origin_mm;
-      flow(trial_stress, e, u.normalized(), s.reference_length_mm, s);
-    }
+    // Both measures are proportional, at this tick's contact, to the distance x0 lies
+    // behind the tool along the flow direction (d along n, |u| along u), so a strain step
+    // of the measure (s / E) is E distance / s of that distance.
+    const Vec3d u = x_mm - s.contact_origin_mm;
+    const Vec3d direction = hertz ? n : Vec3d(u.normalized());
+    const double distance_mm = u.dot(direction);
+    flow(trial_stress, e, direction, e * distance_mm / trial_stress, s);
   } else if (s.plastic_strain > 0.0 &&
              (trial_stress < previous_stress || s.zone == PlasticZone::kPlasticUnload)) {
     s.zone = PlasticZone::kPlasticUnload;
@@ -267,8 +245,8 @@ void ToolForceModel::apply_plasticity(const Vec3d& x_mm, ToolForceState& s) cons
   s.strain = s.stress_measure_pa / e + s.plastic_strain;
 }
 
-double ToolForceModel::flow(double trial_stress_pa, double e_pa, const Vec3d& direction,
-                            double displacement_per_strain_mm, ToolForceState& s) const {
+void ToolForceModel::flow(double trial_stress_pa, double e_pa, const Vec3d& direction,
+                          double displacement_per_strain_mm, ToolForceState& s) const {
   const double e_ep = options_.plastic.elastoplastic_modulus_pa;
   // Hardening modulus H of the plastic strain that gives the tangent slope E_ep.
   const double hardening = e_pa * e_ep / (e_pa - e_ep);
@@ -282,7 +260,6 @@ double ToolForceModel::flow(double trial_stress_pa, double e_pa, const Vec3d& di
   s.surface_change.direction = direction;
   s.surface_change.radius_mm = tool_radius_mm();
   ++s.plastic_steps;
-  return plastic_strain;
 }
 
 }  // namespace hapvox::engine

@@ -96,8 +96,6 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
       options.contact_law == ContactLaw::kPaper
           ? (options.reference_length_mm > 0.0 ? options.reference_length_mm : radius_mm)
           : 0.0;
-  const double nu = options.material.poisson_ratio;
-  hertz_length_factor_ = 0.75 * (1.0 - nu * nu);
   surface_density_ = static_cast<float>(options.surface_density);
   const Vec3d voxel = field.voxel_size_mm();
   const Mat3d to_grid = field.direction().transpose();  // world -> grid frame

@@ -141,7 +141,7 @@ struct ToolForceState {
   double normal_force_n = 0.0;             // F_n, the magnitude of the force along -n
   Vec3d friction_force_n = Vec3d::Zero();  // F_t, tangential (Hertz law; zero under the paper's)
   bool slipping = false;                   // x0 slipped this step
-  double reference_length_mm = 0.0;        // L of this step's strain (0 out of contact)
+  double reference_length_mm = 0.0;        // the paper law's L (0 under Hertz's, out of contact)
   Eigen::Matrix3d stress_pa = Eigen::Matrix3d::Zero();
   ContactIntegral contact;
   Vec3d force_n = Vec3d::Zero();
@@ -240,16 +240,12 @@ class ToolForceModel {
   /// measure is the Hertz mean pressure (Hertz law) or E |u| / L (paper law). Plasticity
   /// disabled: only the zone and measures.
   void apply_plasticity(const Vec3d& tool_center_mm, ToolForceState& state) const;
-  /// L of the strain for this contact (mm): the paper's fixed length, or the Hertz law's
-  /// 3/4 (1 - nu^2) |N| / a. 0 when the contact has no area vector.
-  double reference_length_mm(const ContactIntegral& contact) const;
-  /// Eq. 6 for the law's strain of displacement u over length L (Pa), with the model's
-  /// material. Zero for L <= 0.
+  /// The paper law's Eq. 6 for its strain of displacement u over length L (Pa), with the
+  /// model's material. Zero for L <= 0.
   Eigen::Matrix3d stress_pa(const Vec3d& displacement_mm, double reference_length_mm) const;
-  /// The law's strain of u over L: compression |u| / L along u, with lateral expansion nu
-  /// under the Hertz law (none under the paper's). Zero for L <= 0.
-  Eigen::Matrix3d strain(const Vec3d& displacement_mm, double reference_length_mm,
-                         double poisson_ratio) const;
+  /// The paper law's strain of u over L: compression |u| / L along u, no lateral strain.
+  /// Zero for L <= 0.
+  static Eigen::Matrix3d strain(const Vec3d& displacement_mm, double reference_length_mm);
   /// Eq. 8: F = sigma N (N).
   static Vec3d traction_force_n(const Eigen::Matrix3d& stress_pa, const ContactIntegral& contact);
   /// Eq. 8 with the material at each quadrature point: F = 1e-6 (tr(eps) N_lambda + 2 eps
@@ -288,16 +284,15 @@ class ToolForceModel {
   void hertz_force(const Vec3d& tool_center_mm, ToolForceState& state) const;
   void paper_force(const Vec3d& tool_center_mm, ToolForceState& state) const;
   /// Moves x0 into the material by the plastic strain of a trial measure above the yield
-  /// stress, hardens sigma_f and emits the SurfaceChange; returns the plastic strain.
-  double flow(double trial_stress_pa, double youngs_modulus_pa, const Vec3d& flow_direction,
-              double displacement_per_strain_mm, ToolForceState& state) const;
+  /// stress, hardens sigma_f and emits the SurfaceChange.
+  void flow(double trial_stress_pa, double youngs_modulus_pa, const Vec3d& flow_direction,
+            double displacement_per_strain_mm, ToolForceState& state) const;
 
   const DensityField* field_;
   const TissueMap* tissue_;
   ToolForceOptions options_;
   LameParameters lame_;
   double fixed_reference_length_mm_;  // paper law only
-  double hertz_length_factor_;        // 3/4 (1 - nu^2)
   float surface_density_;
   double sample_area_mm2_;
   Vec3d tool_radius_index_;  // radius in index units per axis

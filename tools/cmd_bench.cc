@@ -95,9 +95,10 @@ std::vector<Table1Row> run_bench_force(const BenchFlags& f) {
         int i = 0;
         for (auto _ : st) {
           const Eigen::Vector3d p = press + Eigen::Vector3d(0.01 * (i & 15), 0, -0.001 * (i & 7));
+          // The same law as step's normal force, from the seed's voxel-by-voxel integral.
           const engine::ContactIntegral c = model.integrate_contact_naive(p, state);
-          const Eigen::Vector3d force = engine::ToolForceModel::traction_force_n(
-              model.stress_pa(p - x0, model.reference_length_mm(c)), c);
+          const Eigen::Vector3d n = c.area_vector_mm2.normalized();
+          const Eigen::Vector3d force = -model.hertz_normal_force_n(c, (p - x0).dot(n)) * n;
           benchmark::DoNotOptimize(force);
           ++i;
         }

@@ -98,7 +98,7 @@ TEST(ToolForce, LinearInDisplacementAtFixedContact) {
   const ContactIntegral contact = model.integrate_contact(p, state);
   ASSERT_GT(contact.samples_in_contact, 0);
   const Vec3d u(0.1, -0.05, -0.4);
-  const double length = model.reference_length_mm(contact);
+  const double length = model.fixed_reference_length_mm();
   ASSERT_EQ(length, 4.0);  // the paper's L = R
   const Vec3d f1 = ToolForceModel::traction_force_n(model.stress_pa(u, length), contact);
   for (double scale : {0.25, 0.5, 2.0, 3.0, 10.0}) {
