@@ -16,6 +16,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 
+def decorate(ax, xlabel, ylabel, title):
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(loc="best")
+    ax.grid(alpha=0.3)
+
+
 def main(csv_path, png_path):
     cases = {}
     with open(csv_path) as f:
@@ -37,11 +45,9 @@ def main(csv_path, png_path):
             travelled.append(s)
         left.plot(travelled, [100.0 * r["work_mj"] / press_in for r in loop_rows[1:]],
                   color=colour, lw=1.0, label=label)
-    left.set_xlabel("path after the press (mm): offset 0.8 mm, then three loops of r = 0.5 mm")
-    left.set_ylabel("hand's work, % of the press-in work")
-    left.set_title("energy on sticking loops (conservative: each loop ends where it began)")
-    left.legend(loc="best")
-    left.grid(alpha=0.3)
+    decorate(left, "path after the press (mm): offset 0.8 mm, then three loops of r = 0.5 mm",
+             "hand's work, % of the press-in work",
+             "energy on sticking loops (conservative: each loop ends where it began)")
 
     rows = cases.get("friction", [])
     if rows:
@@ -54,11 +60,8 @@ def main(csv_path, png_path):
         middle.plot(xs, [0.5 * r["force_z_n"] for r in stroke], color="0.5", ls="--", lw=0.8,
                     label="±μ F_z (μ = 0.5)")
         middle.plot(xs, [-0.5 * r["force_z_n"] for r in stroke], color="0.5", ls="--", lw=0.8)
-    middle.set_xlabel("stroke x (mm), 1.5 mm deep, ±3 mm twice")
-    middle.set_ylabel("force on the tool (N)")
-    middle.set_title("friction cycle: stick ramps, slip on the bound, F_z unchanged")
-    middle.legend(loc="best")
-    middle.grid(alpha=0.3)
+    decorate(middle, "stroke x (mm), 1.5 mm deep, ±3 mm twice", "force on the tool (N)",
+             "friction cycle: stick ramps, slip on the bound, F_z unchanged")
 
     rows = cases.get("oblique", [])
     if rows:
@@ -68,11 +71,8 @@ def main(csv_path, png_path):
                    lw=1.2, label="F_z, press at 45°")
         right.plot([d for d, _ in inside], [r["hertz_n"] for _, r in inside], color="k",
                    ls="--", lw=0.9, label="Hertz 4/3 E* √R d^1.5")
-        right.set_xlabel("depth below the face (mm)")
-        right.set_ylabel("F_z (N)")
-        right.set_title("oblique press: the normal force is Hertz's")
-        right.grid(alpha=0.3)
-        right.legend(loc="best")
+        decorate(right, "depth below the face (mm)", "F_z (N)",
+                 "oblique press: the normal force is Hertz's")
     fig.tight_layout()
     fig.savefig(png_path, dpi=110)
 

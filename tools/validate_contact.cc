@@ -26,6 +26,7 @@
 #include "engine/errors.h"
 #include "engine/io/output_file.h"
 #include "engine/tool_force.h"
+#include "engine/volume_io.h"
 #include "tools/cli.h"
 #include "tools/contact_plot_script.h"
 #include "tools/drawn_pictures.h"
@@ -47,16 +48,15 @@ struct ContactFlags {
 constexpr double kRadiusMm = 4.0;
 constexpr double kTickS = 1e-3;
 
-// A block whose face (its nominal surface) lies 8 mm up, 40 x 40 mm, at voxel size h.
+// The clay block generator's block, 40 mm wide at voxel size h, full up to the voxel face
+// nearest 8 mm above its floor (its nominal surface, face_mm).
 engine::DensityField contact_block(double h_mm) {
   const int n = static_cast<int>(std::ceil(40.0 / h_mm));
   const int top_k = static_cast<int>(std::ceil(8.0 / h_mm));
-  engine::initialize_openvdb();
-  auto grid = openvdb::FloatGrid::create(0.0f);
-  grid->tree().fill(openvdb::CoordBBox({0, 0, 0}, {n - 1, n - 1, top_k - 1}), 1.0f, true);
-  grid->tree().voxelizeActiveTiles();
-  return engine::DensityField(grid, Vec3d::Constant(h_mm), Vec3d::Zero(),
-                              engine::Vec3i(n, n, top_k + static_cast<int>(12.0 / h_mm)));
+  char spec[96];
+  std::snprintf(spec, sizeof spec, "block:dims=%d,voxel_mm=%.17g,fill=%.17g", n, h_mm,
+                double(top_k) / n);
+  return engine::generate_volume(spec);
 }
 
 double face_mm(double h_mm) { return (std::ceil(8.0 / h_mm) - 0.5) * h_mm; }
