@@ -27,8 +27,7 @@ Vec3d slip_across(const Vec3d& x_mm, const Vec3d& origin_mm, const Vec3d& normal
 
 }  // namespace
 
-void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) const {
-  s.slipping = false;
+void ToolForceModel::update_contact_normal(ToolForceState& s) const {
   // The contact normal, where N says where the material is: a tool nearly buried in
   // uniform material has N ~ 0 (all round, the normals cancel) and a direction that is
   // only the quadrature's residue. There it keeps the last normal it had, so its force
@@ -37,7 +36,19 @@ void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) con
   if (n_length > kDefinedNormalShare * s.contact.contact_area_mm2) {
     s.normal = s.contact.area_vector_mm2 / n_length;
   }
+}
+
+void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) const {
+  s.slipping = false;
   if (options_.contact_law == ContactLaw::kHertz) {
+    // Near the surface, where it is (contact_surface.cc): the contact radius of a pole
+    // still inside the density ramp, and x0 along n for an elastic contact.
+    if (s.plastic_strain == 0.0) {
+      const PoleDepth pole = pole_depth(x_mm, s.normal, s);
+      s.ramp_factor = pole.ramp_factor;
+      if (pole.surface_found) follow_surface(x_mm, pole.depth_mm, s);
+    }
+    s.contact.ramp_factor = plastic_ramp_factor(s);
     hertz_force(x_mm, s);
   } else {
     paper_force(x_mm, s);
@@ -51,6 +62,32 @@ void ToolForceModel::apply_contact_law(const Vec3d& x_mm, ToolForceState& s) con
     s.surface_change.from_mm = s.contact_origin_mm;
     s.surface_change.position_mm = s.contact_origin_mm;
   }
+}
+
+double ToolForceModel::plastic_ramp_factor(const ToolForceState& s) const {
+  if (s.plastic_strain == 0.0) return s.ramp_factor;
+  // Under plastic flow the tool presses material it is itself displacing, which the
+  // relaxation rewrites at every voxel it crosses: the undisturbed ramp the lines read is
+  // gone. The correction at yield fades as x0 flows on, over one voxel of flow, by when
+  // the cap lies past any ramp (continuous at yield, and with no ripple at the
+  // voxel-crossing rate).
+  const double share = std::min(1.0, s.plastic_flow_mm / field_->voxel_size_mm().minCoeff());
+  return s.ramp_factor + share * (1.0 - s.ramp_factor);
+}
+
+void ToolForceModel::follow_surface(const Vec3d& x_mm, double depth_mm, ToolForceState& s) const {
+  // The onset placed x0 with the first tick's normal, which a few samples in the ramp give
+  // only to a few degrees: on a curved surface the pole then misses the nearest point by
+  // R (1 - cos) of that. Later ticks know n better. Moving x0's normal part (not its
+  // tangential part, which friction owns) by at most 1/50 voxel a tick keeps the force
+  // continuous where the line through the pole starts or stops finding the surface.
+  const double h_mm = field_->voxel_size_mm().minCoeff();
+  // Only near the surface: a line off n (contact_surface.cc) reads a curved surface
+  // shallower by (offset)^2 / 2 R_m, which grows with the depth.
+  if (depth_mm > 0.5 * h_mm) return;
+  const double max_step_mm = 0.02 * h_mm;
+  const double error_mm = (x_mm - s.contact_origin_mm).dot(s.normal) - depth_mm;
+  s.contact_origin_mm += std::clamp(error_mm, -max_step_mm, max_step_mm) * s.normal;
 }
 
 void ToolForceModel::hertz_force(const Vec3d& x_mm, ToolForceState& s) const {
@@ -255,6 +292,7 @@ void ToolForceModel::flow(double trial_stress_pa, double e_pa, const Vec3d& dire
   s.plastic_strain += plastic_strain;
   // The surface moves permanently: x0 follows the push by the plastic displacement.
   s.contact_origin_mm += direction * (plastic_strain * displacement_per_strain_mm);
+  s.plastic_flow_mm += std::abs(plastic_strain * displacement_per_strain_mm);
   s.zone = PlasticZone::kPlasticLoad;
   s.surface_change_emitted = true;
   s.surface_change.direction = direction;

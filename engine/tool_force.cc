@@ -36,7 +36,7 @@ const char* contact_law_name(ContactLaw law) {
 }
 
 double ContactIntegral::contact_radius_mm() const {
-  return std::sqrt(std::max(0.0, contact_area_mm2) / (2.0 * kPi));
+  return std::sqrt(std::max(0.0, ramp_factor * contact_area_mm2) / (2.0 * kPi));
 }
 
 ToolForceState::ToolForceState(const DensityField& field)
@@ -311,7 +311,11 @@ Vec3d ToolForceModel::refine_contact_origin(const Vec3d& free_mm, const Vec3d& t
       lo = mid;
     }
   }
-  return lo;
+  if (options_.contact_law != ContactLaw::kHertz) return lo;  // the paper's x0, as it was
+  // The first sample to reach the surface is rarely the pole: put x0 where the pole meets
+  // the surface, along the contact normal.
+  const PoleDepth pole = pole_depth(lo, s.normal, s);
+  return pole.surface_found ? Vec3d(lo - pole.depth_mm * s.normal) : lo;
 }
 
 void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
@@ -337,15 +341,20 @@ void ToolForceModel::step(const Vec3d& x_mm, ToolForceState& s) const {
     s.strain = 0.0;
     s.stress_measure_pa = 0.0;
   } else {
-    if (!s.in_contact) {
+    const bool onset = !s.in_contact;
+    if (onset) {
       // A new contact: elastic again, with the material's own yield stress, and no
       // normal until its contact integral gives one.
       s.normal.setZero();
       s.plastic_strain = 0.0;
+      s.plastic_flow_mm = 0.0;
       s.stress_measure_pa = 0.0;
       s.yield_stress_pa = contact_yield_stress_pa(s.contact);
       s.zone = PlasticZone::kElastic;
       ++s.contact_onsets;
+    }
+    update_contact_normal(s);
+    if (onset) {
       if (s.has_position) {
         s.contact_origin_mm = refine_contact_origin(s.last_position_mm, x_mm, s);
       } else {

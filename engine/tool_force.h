@@ -4,11 +4,14 @@
 //   contact      the tool's surface reaches the material's nominal surface (density
 //                surface_density, 1/2 by default: where a voxel ramp crosses half);
 //   x0           the contact origin: the last contact-free tool centre, refined by
-//                bisection between ticks, then moved by friction slip and plastic flow;
+//                bisection between ticks (the Hertz law: then along n to where the pole
+//                meets the surface, contact_surface.cc), then moved by friction slip and
+//                plastic flow;
 //   N, S         N = sum_k rho_k n_k dA_k (mm^2, into the material), S = sum_k rho_k dA_k
 //                over the tool's surface samples, read trilinearly;
 //   Hertz law (default)
-//     normal     indentation d = (x - x0) . n, n = N / |N|, contact radius a = sqrt(S/2pi):
+//     normal     indentation d = (x - x0) . n, n = N / |N|, contact radius
+//                a = sqrt(c S / 2 pi) (c < 1 corrects S while the pole is in the ramp):
 //                  F_n = 4/3 E* a d  along -n  (E* = E / (1 - nu^2)),
 //                so a sphere on a half-space gives F = 4/3 E* sqrt(R) d^1.5, and a sphere on
 //                a sphere (a^2 = R* d) Hertz with R*; F_n depends on the position only
@@ -115,9 +118,26 @@ struct ContactIntegral {
   double modulus_area_pa_mm2 = 0.0;                 // sum E rho dA
   double poisson_area_mm2 = 0.0;                    // sum nu rho dA
   double yield_area_pa_mm2 = 0.0;                   // sum sigma_f rho dA
-  /// Hertz contact radius a = sqrt(S / 2 pi) (mm): a spherical cap of depth d has S =
-  /// 2 pi R d, so a^2 = R d; for two curved surfaces it gives a^2 = R* d.
+  /// The depth the surface stands above the pole over the depth S's cap reads (1 once
+  /// the pole is past the density ramp; PoleDepth). Set by the Hertz law.
+  double ramp_factor = 1.0;
+  /// Hertz contact radius a = sqrt(ramp_factor S / 2 pi) (mm): a spherical cap of depth d
+  /// has S = 2 pi R d, so a^2 = R d; for two curved surfaces it gives a^2 = R* d.
   double contact_radius_mm() const;
+};
+
+/// The nominal surface below the tool's pole p = x + R n, from the density along the line
+/// through p on the grid axis closest to n, 7 voxels out and 4 in (contact_surface.cc).
+struct PoleDepth {
+  /// depth_mm holds the pole's depth below the surface: the line starts outside the
+  /// material and ends past its edge, in material at least surface_density dense.
+  bool surface_found = false;
+  /// Where the material on the line would begin if it were as dense as at its inner end,
+  /// measured from there to the pole (> 0: the pole is inside).
+  double depth_mm = 0.0;
+  /// depth_mm over the depth the cap of S stands for (the line's density integrated up
+  /// to the pole), in [0, 2]; 1 where the surface was not found.
+  double ramp_factor = 1.0;
 };
 
 /// Per-thread mutable state of the elastic force model.
@@ -131,6 +151,8 @@ struct ToolForceState {
   bool in_contact = false;
   Vec3d last_position_mm = Vec3d::Zero();
   Vec3d contact_origin_mm = Vec3d::Zero();  // x0
+  double ramp_factor = 1.0;                 // PoleDepth's, while the contact is elastic
+  double plastic_flow_mm = 0.0;             // how far x0 has flowed in this contact
 
   // Results of the last step.
   Vec3d displacement_mm = Vec3d::Zero();  // u = x_n - x0
@@ -209,9 +231,16 @@ class ToolForceModel {
   ContactIntegral integrate_contact(const Vec3d& tool_center_mm, ToolForceState& state) const;
   /// Contact test only (Eq. 7): stops at the first sample at the nominal surface.
   bool touches(const Vec3d& tool_center_mm, ToolForceState& state) const;
-  /// x0 between a contact-free position and a touching one, by bisection.
+  /// The contact normal n = N / |N| of state.contact, kept where N has no direction.
+  void update_contact_normal(ToolForceState& state) const;
+  /// x0 between a contact-free position and a touching one, by bisection; the Hertz law
+  /// then moves it along state.normal to where the pole meets the surface (pole_depth).
   Vec3d refine_contact_origin(const Vec3d& free_mm, const Vec3d& touching_mm,
                               ToolForceState& state) const;
+  /// The surface below the pole of a tool at `tool_center_mm` along `normal` (unit, into
+  /// the material): its depth, and the contact radius's correction inside the ramp.
+  PoleDepth pole_depth(const Vec3d& tool_center_mm, const Vec3d& normal,
+                       ToolForceState& state) const;
   /// The contact law's force at this tool position, after onset: friction slip, plastic
   /// flow, the force and the measures (engine/contact_laws.cc).
   void apply_contact_law(const Vec3d& tool_center_mm, ToolForceState& state) const;
@@ -282,6 +311,12 @@ class ToolForceModel {
   bool may_touch(const Vec3d& center_index) const;
   /// The two laws' forces for a contact whose x0 is set (contact_laws.cc).
   void hertz_force(const Vec3d& tool_center_mm, ToolForceState& state) const;
+  /// Moves x0 along state.normal toward the place where the pole lies depth_mm below the
+  /// surface, a fiftieth of a voxel at most (an elastic contact near the surface).
+  void follow_surface(const Vec3d& tool_center_mm, double depth_mm, ToolForceState& state) const;
+  /// The contact radius's correction: PoleDepth's while elastic; after yield, its value
+  /// then, fading to 1 over one voxel of plastic flow.
+  double plastic_ramp_factor(const ToolForceState& state) const;
   void paper_force(const Vec3d& tool_center_mm, ToolForceState& state) const;
   /// Moves x0 into the material by the plastic strain of a trial measure above the yield
   /// stress, hardens sigma_f and emits the SurfaceChange.

@@ -53,7 +53,6 @@ const std::map<std::string, OptionRange>& option_ranges() {
       {"--elastoplastic-modulus-pa", {0, 1e12}},
       {"--relax-tolerance", {0, 10}},
       {"--relax-voxels-per-tick", {1, 1e9}},
-      {"--max-depth-ratio", {0.15, 0.5}},
       {"--voxel-mm", {0.1, 2}},  // validate contact's 40 mm block: 32 M voxels at 0.1 mm  //
                                  // validate hertz: Hertz holds to d/R = 0.15
       // The device, the loop and its clock.

@@ -39,6 +39,27 @@ DensityField make_block(const GeneratorOptions& opt) {
   return field_of(grid, opt);
 }
 
+// The share of the unit cube centred at the origin where n.e <= s (n a unit vector): the
+// volume under a plane cutting the box [0,1]^3 by inclusion-exclusion over its corners.
+double cube_share_below(const Vec3d& n, double s) {
+  const Vec3d a = n.cwiseAbs().cwiseMax(1e-3);  // a face along the grid, nearly: no 0/0
+  const double t = s + 0.5 * a.sum();
+  double sum = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    double height = 0.0;
+    int bits = 0;
+    for (int i = 0; i < 3; ++i) {
+      if ((corner >> i) & 1) {
+        height += a[i];
+        ++bits;
+      }
+    }
+    const double u = std::max(0.0, t - height);
+    sum += (bits % 2 == 0 ? 1.0 : -1.0) * u * u * u;
+  }
+  return std::clamp(sum / (6.0 * a.prod()), 0.0, 1.0);
+}
+
 DensityField make_sphere(const GeneratorOptions& opt) {
   const int n = opt.dims;
   const double c = box_centre(n);
@@ -47,7 +68,16 @@ DensityField make_sphere(const GeneratorOptions& opt) {
   const double r2 = r * r;
   auto grid = build_grid(Vec3i::Constant(n), [&](int x, int y, int z) {
     const double dx = x - c, dy = y - c, dz = z - c;
-    return dx * dx + dy * dy + dz * dz <= r2 ? 1.0f : 0.0f;
+    const double q2 = dx * dx + dy * dy + dz * dz;
+    const double q = std::sqrt(q2);
+    if (opt.binary_edge || q < 1.0) return q2 <= r2 ? 1.0f : 0.0f;  // (a sphere of a voxel)
+    if (q <= r - 1.0) return 1.0f;
+    if (q >= r + 1.0) return 0.0f;
+    // The share of the voxel inside the sphere, as a scan's edge voxels hold: the voxel
+    // point c + e is inside where n.e + |e_t|^2 / 2q <= r - q (n the outward normal, e_t
+    // e's part across it), and |e_t|^2 averages 1/6 over a cube.
+    const Vec3d normal = Vec3d(dx, dy, dz) / q;
+    return static_cast<float>(cube_share_below(normal, r - q - 1.0 / (12.0 * q)));
   });
   return field_of(grid, opt);
 }
@@ -78,7 +108,11 @@ DensityField make_four_spheres(const GeneratorOptions& opt) {
 const std::vector<VolumeGenerator>& volume_generators() {
   static const std::vector<VolumeGenerator> generators = {
       {"block", "clay block: the lower fill (default 0.5) of a dims^3 box", {"fill"}, make_block},
-      {"sphere", "solid sphere centred in a dims^3 box", {"radius_mm"}, make_sphere},
+      {"sphere",
+       "solid sphere centred in a dims^3 box, its edge voxels holding their share of it "
+       "(edge=binary: 1 inside, 0 outside)",
+       {"radius_mm", "edge"},
+       make_sphere},
       {"four-spheres",
        "Nakao's phantom: spheres of densities 0.4/0.6/0.8/1.0",
        {},
@@ -134,7 +168,12 @@ GeneratorOptions parse_generator(const std::string& spec, std::string* name) {
     if (!seen.emplace(key, value).second) {
       throw InputError(source, "option '" + key + "' given twice");
     }
-    if (key == "dims") {
+    if (key == "edge") {
+      if (value != "partial" && value != "binary") {
+        throw InputError(source, "edge must be partial or binary, got '" + value + "'");
+      }
+      opt.binary_edge = value == "binary";
+    } else if (key == "dims") {
       std::int64_t v = 0;
       if (!parse_int(value, &v) || v < 1 || v > 1024) {
         throw InputError(source, "dims must be an integer in [1, 1024], got '" + value + "'");

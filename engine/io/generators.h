@@ -14,6 +14,7 @@ struct GeneratorOptions {
   double voxel_mm = 1.0;
   double fill = 0.5;        // block
   double radius_mm = -1.0;  // sphere; < 0: 0.35 of the box
+  bool binary_edge = false;  // sphere: edge voxels 1 or 0 instead of the share inside
 };
 
 /// One generator: its name, what it makes, the options it takes besides the common
@@ -27,7 +28,9 @@ struct VolumeGenerator {
 
 /// Every generator, in the order help texts list them:
 ///   block[:dims=N,voxel_mm=V,fill=F]   clay block: the lower F (default 0.5) of an N^3 box
-///   sphere[:dims=N,voxel_mm=V,radius_mm=R]  solid sphere centred in an N^3 box
+///   sphere[:dims=N,voxel_mm=V,radius_mm=R,edge=partial|binary]  solid sphere centred in an
+///                                      N^3 box; its edge voxels hold the share of them
+///                                      inside (partial, the default) or 1 / 0 (binary)
 ///   four-spheres[:dims=N,voxel_mm=V]   Nakao's phantom: four spheres of densities
 ///                                      0.4/0.6/0.8/1.0 in an N^3 box (default N=128)
 /// Defaults: dims=128, voxel_mm=1.

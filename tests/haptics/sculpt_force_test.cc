@@ -114,8 +114,8 @@ double amplitude_at(const std::vector<double>& x, double f_hz, double rate_hz) {
 TEST(SculptForce, SteadyStrokeForceHasNoRippleAtTheVoxelCrossingFrequency) {
   // 10 mm/s through 1 mm voxels: a voxel crossed every 0.1 s (10 Hz). Frictionless, |F| is
   // the normal force the yield rule holds at sigma_f pi a^2; with Coulomb friction the
-  // spring's stick phases lag that force's own ripple and add to |F|'s (measured 0.70 % at
-  // mu = 0, 1.04 % at 0.5, 0.63 % at 1).
+  // spring's stick phases lag that force's own ripple and add to |F|'s (measured 0.57 % at
+  // mu = 0, 1.00 % at 0.5).
   for (const auto& [friction, bound] : {std::pair{0.0, 0.01}, std::pair{0.5, 0.015}}) {
     TraceMakeOptions make;
     make.shape = TraceShape::kStroke;
