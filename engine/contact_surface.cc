@@ -24,9 +24,10 @@ namespace hapvox::engine {
 namespace {
 
 // The line's reach outside the pole and inside it, in voxels along the grid axis it runs
-// on: along an axis the surface ramp spans up to sqrt(3) times its width along n.
-constexpr int kOutsideVoxels = 7;
-constexpr int kInsideVoxels = 4;
+// on: along an axis at 55 degrees to n a partial-volume ramp spans 3 voxels, and the four
+// columns a read mixes enter the material up to 2 voxels apart.
+constexpr int kOutsideVoxels = 8;
+constexpr int kInsideVoxels = 6;
 
 }  // namespace
 

@@ -127,7 +127,7 @@ struct ContactIntegral {
 };
 
 /// The nominal surface below the tool's pole p = x + R n, from the density along the line
-/// through p on the grid axis closest to n, 7 voxels out and 4 in (contact_surface.cc).
+/// through p on the grid axis closest to n, 8 voxels out and 6 in (contact_surface.cc).
 struct PoleDepth {
   /// depth_mm holds the pole's depth below the surface: the line starts outside the
   /// material and ends past its edge, in material at least surface_density dense.
