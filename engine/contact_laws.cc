@@ -76,9 +76,10 @@ double ToolForceModel::plastic_ramp_factor(const ToolForceState& s) const {
 }
 
 void ToolForceModel::follow_surface(const Vec3d& x_mm, double depth_mm, ToolForceState& s) const {
-  // The onset placed x0 with the first tick's normal, which a few samples in the ramp give
-  // only to a few degrees: on a curved surface the pole then misses the nearest point by
-  // R (1 - cos) of that. Later ticks know n better. Moving x0's normal part (not its
+  // The onset read the surface once, at the bisection's position and with the first
+  // tick's n (from the few quadrature points then in the ramp); later ticks read it again
+  // (measured: validate hertz's diagonal presses on 0.5 mm voxels go from 0.977 to 0.985 of
+  // Hertz with R*, the binary ones from 1.36 to 1.25). Moving x0's normal part (not its
   // tangential part, which friction owns) by at most 1/50 voxel a tick keeps the force
   // continuous where the line through the pole starts or stops finding the surface.
   const double h_mm = field_->voxel_size_mm().minCoeff();

@@ -12,8 +12,8 @@ namespace hapvox::engine::io {
 struct GeneratorOptions {
   int dims = 128;  // an N^3 box
   double voxel_mm = 1.0;
-  double fill = 0.5;        // block
-  double radius_mm = -1.0;  // sphere; < 0: 0.35 of the box
+  double fill = 0.5;         // block
+  double radius_mm = -1.0;   // sphere; < 0: 0.35 of the box
   bool binary_edge = false;  // sphere: edge voxels 1 or 0 instead of the share inside
 };
 

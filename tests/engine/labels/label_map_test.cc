@@ -218,7 +218,8 @@ TEST(LabelVolume, RoundTripsThroughNrrdAndVdb) {
 
 TEST(LabelVolume, AGeneratorServesAsALabelVolume) {
   const RawVolume intensity = dense_intensity(generate_volume("block:dims=8,fill=0.25"));
-  const LabelMap map = read_label_volume("sphere:dims=8,radius_mm=2,edge=binary", intensity, "block");
+  const LabelMap map =
+      read_label_volume("sphere:dims=8,radius_mm=2,edge=binary", intensity, "block");
   const auto counts = map.voxel_counts();
   EXPECT_EQ(counts.size(), 2u);
   // Voxel centres within 2 of (3.5, 3.5, 3.5): offsets of +-0.5 and +-1.5 per axis with
