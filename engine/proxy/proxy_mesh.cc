@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <unordered_map>
 
 #include "engine/errors.h"
@@ -10,32 +11,30 @@
 namespace hapvox::engine::proxy {
 namespace {
 
-// The share of voxel `ijk`'s cell inside the voxel-centre box: 1 inside, 1/2 per axis where
-// the voxel lies on the box's faces (a cell there straddles the face).
-double cell_share_in_box(const Vec3i& ijk, const Vec3i& dims) {
-  double share = 1.0;
-  for (int a = 0; a < 3; ++a) {
-    if (dims[a] > 1 && (ijk[a] == 0 || ijk[a] == dims[a] - 1)) share *= 0.5;
+// Reference volume (mm^3) of each label: its voxels' cells, which tile the box the mesh spans.
+std::map<std::int32_t, double> reference_volumes_mm3(const labels::LabelMap& map) {
+  std::map<std::int32_t, double> volumes;
+  const double voxel_mm3 = map.spacing_mm().prod();
+  for (const auto& [label, count] : map.voxel_counts()) {
+    volumes[label] = static_cast<double>(count) * voxel_mm3;
   }
-  return share;
+  return volumes;
 }
 
-// Reference volume (mm^3) of each label: its voxels' cells clipped to the voxel-centre box the
-// mesh covers, so labels touching the volume's faces (the background) compare like for like.
-std::map<std::int32_t, double> reference_volumes_mm3(const labels::LabelMap& map) {
-  std::map<std::int32_t, double> cells;
-  const Vec3i& dims = map.dims();
-  for (int z = 0; z < dims.z(); ++z) {
-    for (int y = 0; y < dims.y(); ++y) {
-      for (int x = 0; x < dims.x(); ++x) {
-        const Vec3i ijk(x, y, z);
-        cells[map.at(ijk)] += cell_share_in_box(ijk, dims);
-      }
-    }
+// The label of the voxel whose cell holds `p_mm`, the nearest voxel's on and beyond the box's
+// faces: the mesher samples the box's faces, which belong to the outermost cells (at_world
+// gives 0 on the upper faces, cells being half-open, which would cut a rim of background
+// along them).
+labels::Label label_in_box(const labels::LabelMap& map, const Vec3d& p_mm) {
+  const Vec3d index = map.world_to_index(p_mm);
+  Vec3i ijk;
+  for (int a = 0; a < 3; ++a) {
+    const double nearest = std::floor(index[a] + 0.5);
+    ijk[a] = std::isfinite(nearest)
+                 ? static_cast<int>(std::clamp(nearest, 0.0, double(map.dims()[a] - 1)))
+                 : 0;
   }
-  const double voxel_mm3 = map.spacing_mm().prod();
-  for (auto& [label, volume] : cells) volume *= voxel_mm3;
-  return cells;
+  return map.at(ijk);
 }
 
 std::vector<fem::TetMaterial> tet_materials(const fem::TetMesh& mesh,
@@ -84,9 +83,10 @@ std::vector<fem::VertexClass> vertex_classes(const fem::TetMesh& mesh,
 
 }  // namespace
 
-Eigen::AlignedBox3d voxel_centre_box(const labels::LabelMap& labels) {
-  return {labels.index_to_world(Vec3d::Zero()),
-          labels.index_to_world((labels.dims() - Vec3i::Ones()).cast<double>())};
+Eigen::AlignedBox3d voxel_box(const labels::LabelMap& labels) {
+  const Vec3d a = labels.index_to_world(Vec3d::Constant(-0.5));
+  const Vec3d b = labels.index_to_world(labels.dims().cast<double>() - Vec3d::Constant(0.5));
+  return {a.cwiseMin(b), a.cwiseMax(b)};
 }
 
 ProxyMesh build_proxy_mesh(const labels::LabelMap& labels, const labels::Materials& materials,
@@ -96,7 +96,7 @@ ProxyMesh build_proxy_mesh(const labels::LabelMap& labels, const labels::Materia
   const std::vector<labels::FixedBox> boxes = labels::resolve_fixed_regions(materials, labels);
 
   fem::ConformingMeshOptions mesh_options;
-  mesh_options.box_mm = voxel_centre_box(labels);
+  mesh_options.box_mm = voxel_box(labels);
   mesh_options.coarse_spacing_mm = options.coarse_spacing_mm > 0
                                        ? options.coarse_spacing_mm
                                        : mesh_options.box_mm.sizes().minCoeff() / 8.0;
@@ -104,7 +104,7 @@ ProxyMesh build_proxy_mesh(const labels::LabelMap& labels, const labels::Materia
   mesh_options.tool_region = options.tool_region;
   mesh_options.tool_levels = options.tool_levels;
   const fem::LabelFunction label_at = [&labels](const Eigen::Vector3d& p_mm) {
-    return labels.at_world(p_mm);
+    return label_in_box(labels, p_mm);
   };
   fem::ConformingMesh built =
       fem::build_conforming_mesh(mesh_options, label_at, reference_volumes_mm3(labels));

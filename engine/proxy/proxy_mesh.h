@@ -42,20 +42,23 @@ struct ProxyMeshOptions {
 };
 
 /// Builds the proxy mesh of `labels` (every label present must have a material, else
-/// InputError(materials.source, ...)); the label function is the voxel's label at a world
-/// point, the box is the volume's voxel-centre box, and reference volumes per label are the
-/// voxel counts times the voxel volume (a voxel on the box's faces counts with the part of its
-/// cell inside the box: half on a face, a quarter on an edge, an eighth at a corner, so the
-/// background's error is not the half-voxel rim the box leaves out). Vertex classes: every
-/// vertex of a tet of a fixed label, every vertex in a fixed region without a label, and in a
-/// region with a label every vertex of that label's tets in it, is kFixed. A tet whose label
-/// has no material is InputError(materials.source, ...). Bad options: InputError("proxy
-/// mesh", ...) from build_conforming_mesh.
+/// InputError(materials.source, ...)). The mesh spans the voxels' cells (voxel_box), so its
+/// outer faces lie where the voxel model's nominal surface does for material that fills the
+/// volume to its edge (the density crossing 1/2 half a voxel beyond the last centre), and the
+/// label function is the label of the voxel whose cell holds the point (the nearest voxel's
+/// on the box's faces), so a boundary between labels lies on the cells' faces, half-way
+/// between voxel centres, where the voxel model's nominal surface between a full and an empty
+/// voxel lies. Reference volumes per label are the voxel counts times the voxel volume.
+/// Vertex classes: every vertex of a tet of a fixed label, every vertex in a fixed region
+/// without a label, and in a region with a label every vertex of that label's tets in it, is
+/// kFixed. A tet whose label has no material is InputError(materials.source, ...). Bad
+/// options: InputError("proxy mesh", ...) from build_conforming_mesh.
 ProxyMesh build_proxy_mesh(const labels::LabelMap& labels, const labels::Materials& materials,
                            const ProxyMeshOptions& options = {});
 
-/// The box the mesh covers: from the first voxel's centre to the last's (world mm).
-Eigen::AlignedBox3d voxel_centre_box(const labels::LabelMap& labels);
+/// The box the mesh covers: the voxels' cells, from the first voxel's centre less half a voxel
+/// to the last's plus half a voxel (world mm).
+Eigen::AlignedBox3d voxel_box(const labels::LabelMap& labels);
 
 /// The number of kFixed vertices.
 int fixed_vertex_count(const ProxyMesh& proxy);

@@ -2,10 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <map>
 
 #include "../labels/input_error.h"
+#include "engine/io/generators.h"
 #include "engine/proxy/label_source.h"
 #include "phantom_inputs.h"
 
@@ -55,10 +59,10 @@ TEST(ProxyMesh, EachSphereKeepsItsVoxelVolumeWithinThreePercent) {
     EXPECT_LT(std::abs(error), 0.03) << "label " << label;
     EXPECT_NEAR(report.volume_mm3_by_label.at(label) / voxels_mm3, 1.0, 0.03) << "label " << label;
   }
-  // The background's reference is its cells clipped to the voxel-centre box, so the whole
-  // mesh matches the box.
+  // The mesh spans the voxels' cells, so the whole mesh is the volume's box and the background
+  // keeps its voxels' volume too.
   EXPECT_LT(std::abs(report.relative_volume_error_by_label.at(0)), 0.03);
-  EXPECT_NEAR(report.quality.total_volume_mm3, voxel_centre_box(phantom().map).volume(), 1e-6);
+  EXPECT_NEAR(report.quality.total_volume_mm3, voxel_box(phantom().map).volume(), 1e-6);
   EXPECT_EQ(report.quality.inverted_tets, 0);
   EXPECT_GE(report.quality.min_dihedral_deg, fem::kConformingMinDihedralDeg);
   EXPECT_LE(report.quality.max_dihedral_deg, fem::kConformingMaxDihedralDeg);
@@ -195,10 +199,81 @@ TEST(ProxyMesh, DefaultSpacingIsAnEighthOfTheShortestSide) {
   const labels::Materials one = labels::parse_materials(
       "[[material]]\nlabel = 0\nyoungs_modulus_pa = 1e6\npoisson_ratio = 0.3\n", "one.toml");
   const ProxyMesh proxy = build_proxy_mesh(uniform, one);
-  // 15 mm / 8 = 1.875 mm: 8, 10 and 12 cells along x, y and z.
+  // The voxels' cells span 16 x 20 x 24 mm; 16 mm / 8 = 2 mm: 8, 10 and 12 cells along x, y, z.
   EXPECT_EQ(proxy.report.lattice_vertex_count, 9 * 11 * 13);
   EXPECT_EQ(proxy.report.lattice_tet_count, 6 * 8 * 10 * 12);
   EXPECT_EQ(fixed_vertex_count(proxy), 0);
+}
+
+// Where the voxel model's density crosses 1/2 along `axis` towards `sign` from a point in the
+// block's lower quarter (bisection of its trilinear read from there to a voxel beyond the box).
+double nominal_surface_mm(const DensityField& field, int axis, int sign) {
+  Vec3d start = 0.5 * (field.world_min_mm() + field.world_max_mm());
+  start.z() = field.world_min_mm().z() + 0.25 * (field.world_max_mm() - field.world_min_mm()).z();
+  Vec3d inside = start;
+  Vec3d outside = start;
+  outside[axis] = sign > 0 ? field.world_max_mm()[axis] + field.voxel_size_mm()[axis]
+                           : field.world_min_mm()[axis] - field.voxel_size_mm()[axis];
+  for (int i = 0; i < 60; ++i) {
+    const Vec3d middle = 0.5 * (inside + outside);
+    (field.sample_world(middle) >= 0.5 ? inside : outside) = middle;
+  }
+  return 0.5 * (inside[axis] + outside[axis]);
+}
+
+// One surface for both models (issue 28): the clay's faces in the proxy mesh lie where the voxel
+// model's density crosses 1/2. A block filling its volume has its faces half a voxel beyond the
+// outermost centres (a mesh over the centres' box put them half a voxel inside: the FEM felt
+// nothing for the first half voxel of a press); a half-filled block's top is the interface with
+// the air above it.
+TEST(ProxyMesh, TheClaysFacesLieOnTheVoxelModelsNominalSurface) {
+  const labels::Materials clay =
+      labels::read_materials(testing::source_path("data/clay_block.toml"));
+  for (const char* spec :
+       {"block:dims=12,voxel_mm=0.5,fill=1", "block:dims=12,voxel_mm=0.5,fill=0.5"}) {
+    const DensityField field = io::generate_volume(spec);
+    const labels::LabelMap map = proxy_labels(labels::read_scalar_volume(spec), clay, {});
+    const ProxyMesh proxy = build_proxy_mesh(map, clay);
+    // The clay's boundary faces: faces of clay tets that no other clay tet shares.
+    std::map<std::array<std::int32_t, 3>, std::pair<int, Vec3d>> faces;  // count, outward normal
+    for (int t = 0; t < proxy.mesh.tet_count(); ++t) {
+      if (proxy.mesh.labels[t] != 1) continue;
+      const auto& tet = proxy.mesh.tets[t];
+      for (int skip = 0; skip < 4; ++skip) {
+        std::array<std::int32_t, 3> face{};
+        for (int i = 0, k = 0; i < 4; ++i) {
+          if (i != skip) face[k++] = tet[i];
+        }
+        const Vec3d a = proxy.mesh.rest_mm.col(face[0]);
+        Vec3d normal = (Vec3d(proxy.mesh.rest_mm.col(face[1])) - a)
+                           .cross(Vec3d(proxy.mesh.rest_mm.col(face[2])) - a)
+                           .normalized();
+        if (normal.dot(Vec3d(proxy.mesh.rest_mm.col(tet[skip])) - a) > 0) normal = -normal;
+        std::sort(face.begin(), face.end());
+        auto& entry = faces[face];
+        ++entry.first;
+        entry.second = normal;
+      }
+    }
+    const double voxel_mm = 0.5;
+    int checked = 0;
+    double worst_mm = 0;
+    for (const auto& [face, entry] : faces) {
+      if (entry.first != 1) continue;
+      int axis = 0;
+      entry.second.cwiseAbs().maxCoeff(&axis);
+      ASSERT_GT(std::abs(entry.second[axis]), 0.999) << spec << ": a face off the block's planes";
+      const double surface_mm = nominal_surface_mm(field, axis, entry.second[axis] > 0 ? 1 : -1);
+      for (const std::int32_t v : face) {
+        worst_mm = std::max(worst_mm, std::abs(proxy.mesh.rest_mm(axis, v) - surface_mm));
+        ++checked;
+      }
+    }
+    std::printf("%s: %d face vertices, worst offset %.2e voxel\n", spec, checked,
+                worst_mm / voxel_mm);
+    EXPECT_GT(checked, 0);
+    EXPECT_LE(worst_mm, 0.1 * voxel_mm) << spec;
+  }
 }
 
 TEST(ProxyMesh, BadOptionsAreInputErrors) {
