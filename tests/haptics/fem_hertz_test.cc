@@ -1,7 +1,8 @@
 // Hertz through the proxy-FEM press (issues 9 and 28): a rigid sphere pressed into a clay block
-// the way `hapvox replay --model fem` builds it (the `block` generator labelled by
-// data/clay_block.toml's intensity ranges: E = 100 kPa, nu = 0.3, the bottom quarter fixed; the
-// mesh refined along the tool's path, the path's box grown by the radius), the force against
+// built as `hapvox replay --model fem` builds it (the `block` generator labelled by
+// data/clay_block.toml's intensity ranges: E = 100 kPa, nu = 0.3, the bottom quarter fixed),
+// its mesh refined around the tool's path (the path's box grown by the radius, as replay's,
+// and a radius further into the block, finer than replay's one level), the force against
 // the indentation d of the tool's proxy below the voxel model's nominal surface compared with
 // F = 4/3 E* sqrt(R) d^1.5, E* = E / (1 - nu^2).
 //
