@@ -7,68 +7,6 @@
 #include "engine/check.h"
 
 namespace hapvox::engine {
-namespace {
-
-// The z-interval (mm) where the vertical line through (x, y) lies within `radius` of the
-// segment ab: the hull of its intersections with the two end spheres and the cylinder
-// (the capsule is convex, so the union of the three is one interval). False if empty.
-bool capsule_z_span(double x, double y, const Vec3d& a, const Vec3d& b, double radius, double& z_lo,
-                    double& z_hi) {
-  z_lo = INFINITY;
-  z_hi = -INFINITY;
-  for (const Vec3d* end : {&a, &b}) {
-    const double h2 =
-        radius * radius - (x - end->x()) * (x - end->x()) - (y - end->y()) * (y - end->y());
-    if (h2 <= 0.0) continue;
-    const double h = std::sqrt(h2);
-    z_lo = std::min(z_lo, end->z() - h);
-    z_hi = std::max(z_hi, end->z() + h);
-  }
-  const Vec3d ab = b - a;
-  const double length = ab.norm();
-  if (length > 0.0) {
-    // Points p(z) = w + z e_z relative to a; axis u. Perpendicular part q(z) = q0 + z qz.
-    const Vec3d u = ab / length;
-    const Vec3d w(x - a.x(), y - a.y(), -a.z());
-    const Vec3d q0 = w - w.dot(u) * u;
-    const Vec3d qz = Vec3d::UnitZ() - u.z() * u;
-    const double qa = qz.squaredNorm(), qb = 2.0 * q0.dot(qz),
-                 qc = q0.squaredNorm() - radius * radius;
-    double c_lo = -INFINITY, c_hi = INFINITY;
-    bool hit = true;
-    if (qa > 1e-12) {
-      const double disc = qb * qb - 4.0 * qa * qc;
-      if (disc <= 0.0) {
-        hit = false;
-      } else {
-        c_lo = (-qb - std::sqrt(disc)) / (2.0 * qa);
-        c_hi = (-qb + std::sqrt(disc)) / (2.0 * qa);
-      }
-    } else if (qc >= 0.0) {
-      hit = false;  // line parallel to the axis, outside the cylinder
-    }
-    // Within the slab 0 <= (p - a).u <= length: w.u + z u.z in [0, length].
-    if (hit && std::abs(u.z()) > 1e-12) {
-      const double t0 = (0.0 - w.dot(u)) / u.z(), t1 = (length - w.dot(u)) / u.z();
-      c_lo = std::max(c_lo, std::min(t0, t1));
-      c_hi = std::min(c_hi, std::max(t0, t1));
-    } else if (hit) {
-      hit = w.dot(u) >= 0.0 && w.dot(u) <= length;
-    }
-    if (hit && c_lo < c_hi) {
-      z_lo = std::min(z_lo, c_lo);
-      z_hi = std::max(z_hi, c_hi);
-    }
-  }
-  return z_lo < z_hi;
-}
-
-openvdb::Coord to_coord(const Vec3d& v) {
-  return openvdb::Coord(static_cast<int>(std::lround(v.x())), static_cast<int>(std::lround(v.y())),
-                        static_cast<int>(std::lround(v.z())));
-}
-
-}  // namespace
 
 std::int32_t normal_density_units(double normal_density) {
   HAPVOX_CHECK(normal_density > 0.0 && normal_density <= 1.0);
@@ -87,7 +25,8 @@ MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
       threshold_units_(static_cast<std::int32_t>(
           std::floor(normal_units_ * (1.0 + std::max(0.0, options.tolerance))))),
       rule_(options.rule),
-      flow_visits_per_voxel_(options.flow_visits_per_voxel) {
+      flow_visits_per_voxel_(options.flow_visits_per_voxel),
+      skip_swept_voxels_(options.skip_swept_voxels) {
   HAPVOX_CHECK_GE(flow_visits_per_voxel_, std::size_t{1});
   for (auto it = field.grid().cbeginValueOn(); it; ++it) {
     const auto units = static_cast<std::int32_t>(std::lround(*it * kNormalDensityUnits));
@@ -131,109 +70,11 @@ void MassGrid::activate_if_over(const openvdb::Coord& ijk, std::int32_t units) {
   if (units > threshold_units_) queue_.push(Entry{units, ijk});
 }
 
-double MassGrid::tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm,
-                               double radius_mm) const {
-  const Vec3d ab = b_mm - a_mm;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0.0 ? std::clamp((p_mm - a_mm).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  const Vec3d r = p_mm - (a_mm + t * ab);
-  const double dist = r.norm();
-  // The voxel's extent across the tool's surface: the width of the box h along r.
-  const double width =
-      dist > 0.0 ? r.cwiseAbs().dot(voxel_size_mm_) / dist : voxel_size_mm_.maxCoeff();
-  return std::clamp((radius_mm - dist) / width + 0.5, 0.0, 1.0);
-}
-
 bool MassGrid::inside_tool(const openvdb::Coord& ijk) const {
   if (!has_tool_) return false;
   const Vec3d p = Vec3d(ijk.x(), ijk.y(), ijk.z()).cwiseProduct(voxel_size_mm_);
   return tool_coverage(p, tool_from_index_.cwiseProduct(voxel_size_mm_),
                        tool_to_index_.cwiseProduct(voxel_size_mm_), tool_radius_mm_) > 0.0;
-}
-
-std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
-  const double radius = change.radius_mm;
-  HAPVOX_CHECK_GT(radius, 0.0);
-  // Work in index space scaled back to mm per axis (voxels may be anisotropic), in the grid
-  // frame: the world offsets from the origin turned onto the index axes.
-  const Mat3d to_grid = direction_.transpose();
-  const Vec3d a = to_grid * (change.from_mm - origin_mm_);
-  const Vec3d b = to_grid * (change.position_mm - origin_mm_);
-  tool_from_index_ = a.cwiseQuotient(voxel_size_mm_);
-  tool_to_index_ = b.cwiseQuotient(voxel_size_mm_);
-  tool_radius_mm_ = radius;
-  has_tool_ = true;
-  for (const openvdb::Coord& ijk : walled_in_) activate_if_over(ijk, accessor_.getValue(ijk));
-  walled_in_.clear();
-  const Vec3d dir = (to_grid * change.direction).normalized();
-  const double step_mm = 0.5 * voxel_size_mm_.minCoeff();
-  // Voxels the tool's surface crosses are covered in part: the sweep reaches half a
-  // voxel diagonal beyond the radius.
-  const double reach = radius + 0.5 * voxel_size_mm_.norm();
-  const Vec3d lo = (a.cwiseMin(b) - Vec3d::Constant(reach)).cwiseQuotient(voxel_size_mm_);
-  const Vec3d hi = (a.cwiseMax(b) + Vec3d::Constant(reach)).cwiseQuotient(voxel_size_mm_);
-  std::size_t emptied = 0;
-  for (int i = static_cast<int>(std::floor(lo.x())); i <= static_cast<int>(std::ceil(hi.x()));
-       ++i) {
-    for (int j = static_cast<int>(std::floor(lo.y())); j <= static_cast<int>(std::ceil(hi.y()));
-         ++j) {
-      // Only the voxels on this column's span through the sweep (one voxel of slack; the
-      // exact test below decides).
-      double z_lo_mm, z_hi_mm;
-      if (!capsule_z_span(i * voxel_size_mm_.x(), j * voxel_size_mm_.y(), a, b, reach, z_lo_mm,
-                          z_hi_mm)) {
-        continue;
-      }
-      const int k_lo = std::max(static_cast<int>(std::floor(lo.z())),
-                                static_cast<int>(std::floor(z_lo_mm / voxel_size_mm_.z())) - 1);
-      const int k_hi = std::min(static_cast<int>(std::ceil(hi.z())),
-                                static_cast<int>(std::ceil(z_hi_mm / voxel_size_mm_.z())) + 1);
-      for (int k = k_lo; k <= k_hi; ++k) {
-        const openvdb::Coord source(i, j, k);
-        const Vec3d p = Vec3d(i, j, k).cwiseProduct(voxel_size_mm_);
-        // Partial volume: the voxel keeps what fits in the part the tool does not cover,
-        // so the surface follows the sphere within a voxel and a stroke feels smooth.
-        const double covered = tool_coverage(p, a, b, radius);
-        if (covered <= 0.0) continue;
-        const std::int32_t units = accessor_.getValue(source);
-        if (units <= 0) continue;
-        const auto room = static_cast<std::int32_t>(std::floor(normal_units_ * (1.0 - covered)));
-        if (units <= room) continue;
-        const std::int32_t removed = units - room;
-        // March along the push until the voxel centre leaves the swept sphere and its
-        // covered rim; for a sphere, start a voxel short of where the ray leaves it.
-        Vec3d q = p;
-        if (a == b) {
-          const double along = (p - a).dot(dir);
-          const double exit_mm =
-              -along +
-              std::sqrt(std::max(0.0, along * along - (p - a).squaredNorm() + radius * radius));
-          const double skip_steps = std::floor(exit_mm / step_mm) - 2.0;
-          if (skip_steps > 0.0) q += skip_steps * step_mm * dir;
-        }
-        openvdb::Coord target = source;
-        for (int guard = 0; guard < 100000; ++guard) {
-          q += step_mm * dir;
-          target = to_coord(q.cwiseQuotient(voxel_size_mm_));
-          const Vec3d centre =
-              Vec3d(target.x(), target.y(), target.z()).cwiseProduct(voxel_size_mm_);
-          if (tool_coverage(centre, a, b, radius) <= 0.0) break;
-        }
-        const std::int64_t target_sum = std::int64_t{accessor_.getValue(target)} + removed;
-        HAPVOX_CHECK_LE(target_sum, std::int64_t{INT32_MAX});
-        const auto target_units = static_cast<std::int32_t>(target_sum);
-        set(source, room);
-        set(target, target_units);
-        carved_accessor_.setValueOn(source);
-        carved_accessor_.setValueOff(target);
-        activate_if_over(target, target_units);
-        work_.moved_units += static_cast<std::uint64_t>(removed);
-        ++emptied;
-      }
-    }
-  }
-  work_.deleted_voxels += emptied;
-  return emptied;
 }
 
 void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
@@ -410,6 +251,8 @@ void MassGrid::end_flow() {
     HAPVOX_CHECK_LE(units, std::int64_t{INT32_MAX});
     set(back, static_cast<std::int32_t>(units));
     walled_in_.push_back(back);
+    // A source the tool has covered since: the sweep holds material (apply_deletion).
+    if (inside_tool(back)) sweep_empty_ = false;
     flow_units_ = 0;
   }
   flow_active_ = false;

@@ -74,10 +74,17 @@ struct RelaxOptions {
   /// Voxels the flow-to-room search may expand per voxel of relax()'s budget (a visit
   /// reads 6 neighbours, a relaxed voxel 26 and tests each against the tool). At least 1.
   std::size_t flow_visits_per_voxel = 8;
+  /// A deletion visits only the voxels holding material (leaf value masks) and leaves out
+  /// those the last deletion's sweep covered whole (they are empty: see apply_deletion).
+  /// false visits every voxel of the sweep in index order, as before issue 29: the same
+  /// grid, bit for bit, at the old cost (the reference the tests and `bench plastic`
+  /// compare with).
+  bool skip_swept_voxels = true;
 };
 
 struct RelaxWork {
   std::uint64_t deleted_voxels = 0;  // voxels deletions took mass from (in part or whole)
+  std::uint64_t swept_voxels = 0;    // voxels deletions tested against their sweep
   std::uint64_t relaxed_voxels = 0;  // active voxels processed
   std::uint64_t moved_units = 0;     // mass moved, fixed-point units
   std::uint64_t flow_visits = 0;     // voxels the flow-to-room search visited
@@ -97,6 +104,23 @@ class MassGrid {
   std::int64_t summed_mass_units() const;
 
   /// Paper step 1. Returns the number of voxels emptied.
+  ///
+  /// Cost: a tool ploughing in small steps changes only the thin shell its new sweep adds
+  /// and the partial-volume rim, so that is what it visits (engine/relax_deletion.cc):
+  ///   - Only voxels holding material can lose any. They are the active ones (an emptied
+  ///     voxel is turned off), so each leaf's value mask picks them, and a region with no
+  ///     leaf is passed over whole.
+  ///   - Every voxel whose centre lies within r - |h|/2 of the last deletion's sweep
+  ///     (coverage 1 there, as a voxel's width across the surface is at most |h|) was
+  ///     emptied by it, and nothing refills the sweep before the next deletion: relaxation
+  ///     and the flow never give to a voxel under the tool, and a push lands beyond the
+  ///     sweep it comes from. So each column leaves that span out. The one way in (a flow
+  ///     sealed in by the tool returning its pool to a source the tool has since covered)
+  ///     turns this off for the next deletion.
+  /// Sources never receive (a push lands where the sweep does not reach) and pushes add
+  /// integers, so the order of visits does not change the grid: the clay is the same, voxel
+  /// for voxel, as visiting every voxel of the sweep in order (RelaxOptions::
+  /// skip_swept_voxels = false).
   std::size_t apply_deletion(const SurfaceChange& change);
 
   /// Paper step 2: relaxes at most `max_voxels` active voxels; the flow's search expands at
@@ -151,12 +175,38 @@ class MassGrid {
     }
   };
 
+  // One deletion's geometry, grid frame, mm from the grid origin.
+  struct Sweep {
+    Vec3d a_mm, b_mm;  // the sphere's centre swept from a to b
+    double radius_mm = 0.0;
+    double reach_mm = 0.0;  // radius plus half a voxel diagonal: what it covers in part
+    Vec3d push;             // unit direction the removed material moves
+    double step_mm = 0.0;   // the push's march step
+    openvdb::Coord lo, hi;  // index box of the reach
+    // The last sweep's core (every voxel it covered whole, emptied then), left out.
+    bool skip_core = false;
+    Vec3d core_a_mm, core_b_mm;
+    double core_radius_mm = 0.0;
+  };
+
   void set(const openvdb::Coord& ijk, std::int32_t units);
   void activate_if_over(const openvdb::Coord& ijk, std::int32_t units);
   /// Fraction of a voxel centred at p the swept sphere covers (a linear ramp across the
   /// voxel's width along the distance direction); all in mm from the grid origin.
   double tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm,
                        double radius_mm) const;
+  /// The k range of column (i, j) within the sweep's reach (one voxel of slack each way);
+  /// false if none.
+  bool column_span(const Sweep& s, int i, int j, int& k_lo, int& k_hi) const;
+  /// The k range of column (i, j) strictly inside the last sweep's core; false if none or
+  /// when the core is not skipped.
+  bool core_span(const Sweep& s, int i, int j, int& k_lo, int& k_hi) const;
+  /// Visits every voxel of the sweep in index order (the reference).
+  std::size_t delete_every_voxel(const Sweep& s);
+  /// Visits the active voxels of the leaves the sweep reaches, less the last core.
+  std::size_t delete_in_leaves(const Sweep& s);
+  /// Empties one voxel in partial volume and pushes what it loses; true if it lost any.
+  bool delete_voxel(const Sweep& s, const openvdb::Coord& source);
   /// Any part of the voxel under the tool's last swept sphere.
   bool inside_tool(const openvdb::Coord& ijk) const;
   void relax_voxel(const openvdb::Coord& ijk, std::int32_t units);
@@ -200,6 +250,12 @@ class MassGrid {
   std::vector<openvdb::Coord> walled_in_;
   // The tool's last swept sphere (index space), which relaxation must not fill.
   bool has_tool_ = false;
+  // Every voxel the last sweep covered whole is still empty (apply_deletion's skip), and
+  // that sweep exactly as its coverage was computed.
+  bool sweep_empty_ = false;
+  bool skip_swept_voxels_ = true;
+  Vec3d last_from_mm_ = Vec3d::Zero();
+  Vec3d last_to_mm_ = Vec3d::Zero();
   Vec3d tool_from_index_ = Vec3d::Zero();
   Vec3d tool_to_index_ = Vec3d::Zero();
   double tool_radius_mm_ = 0.0;

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <vector>
 
 #include "engine/volume_io.h"
 
@@ -387,6 +389,65 @@ TEST(Relax, RunsAreDeterministic) {
     return values;
   };
   EXPECT_EQ(run(), run());
+}
+
+// Issue 29: a deletion visits only the voxels holding material (each leaf's value mask), less
+// the core of the last sweep (emptied by it), in leaf order. The clay must be what visiting
+// every voxel of the sweep in index order gives, voxel for voxel: a ploughing sphere in
+// 0.05 mm steps, coalesced sweeps 0.7 mm long on an oblique path, the tool's size changing
+// mid-stroke, and relaxation with a small budget between deletions, so flows are still in
+// flight when the tool moves.
+TEST(Relax, VisitingOnlyWhatCanChangeSculptsTheSameClayVoxelForVoxel) {
+  struct Event {
+    Vec3d from_mm, to_mm, push;
+    double radius_mm;
+  };
+  std::vector<Event> events;
+  for (int e = 0; e < 120; ++e) {  // a 16 mm tool ploughing along x, pushing ahead and down
+    const Vec3d at(14 + 0.05 * e, 24, 27);
+    events.push_back({at, at, Vec3d(1, 0, -1), 8.0});
+  }
+  Vec3d last(20, 24, 27);
+  for (int e = 0; e < 30; ++e) {  // coalesced sweeps, the tool shrinking and growing again
+    const Vec3d next = last + Vec3d(0.5, 0.4, -0.2 + 0.02 * e);
+    events.push_back({last, next, (next - last).normalized(), e < 10 ? 8.0 : e < 20 ? 5.0 : 6.5});
+    last = next;
+  }
+  struct Clay {
+    RelaxWork work;
+    std::int64_t total_units = 0;
+    std::vector<std::pair<openvdb::Coord, std::int32_t>> voxels;  // active, in tree order
+  };
+  auto run = [&](bool skip) {
+    RelaxOptions options;
+    options.skip_swept_voxels = skip;
+    MassGrid mass(generate_volume("block:dims=48"), options);  // face at z = 23.5
+    for (const Event& e : events) {
+      SurfaceChange c = change_at(e.to_mm, e.push, e.radius_mm);
+      c.from_mm = e.from_mm;
+      mass.apply_deletion(c);
+      mass.relax(20);
+    }
+    Clay clay{mass.work(), mass.total_mass_units(), {}};
+    for (auto it = mass.grid().cbeginValueOn(); it; ++it) {
+      clay.voxels.emplace_back(it.getCoord(), *it);
+    }
+    return clay;
+  };
+  const Clay all = run(false);
+  const Clay skipping = run(true);
+  std::printf("voxels tested: %llu visiting all, %llu visiting what can change; %llu deleted\n",
+              static_cast<unsigned long long>(all.work.swept_voxels),
+              static_cast<unsigned long long>(skipping.work.swept_voxels),
+              static_cast<unsigned long long>(all.work.deleted_voxels));
+  EXPECT_EQ(all.work.deleted_voxels, skipping.work.deleted_voxels);
+  EXPECT_EQ(all.work.moved_units, skipping.work.moved_units);
+  EXPECT_EQ(all.work.relaxed_voxels, skipping.work.relaxed_voxels);  // relaxation as before
+  EXPECT_EQ(all.work.flow_visits, skipping.work.flow_visits);
+  EXPECT_EQ(all.total_units, skipping.total_units);
+  EXPECT_TRUE(all.voxels == skipping.voxels);
+  // The 16 mm tool's 0.05 mm steps test a few voxels per column, not the whole sphere.
+  EXPECT_LT(skipping.work.swept_voxels * 3, all.work.swept_voxels);
 }
 
 }  // namespace
