@@ -177,9 +177,14 @@ class MassGrid {
 
   // One deletion's geometry, grid frame, mm from the grid origin.
   struct Sweep {
+    // The loop before issue 29 (RelaxOptions::skip_swept_voxels = false): every voxel in
+    // index order, tool_coverage at every test and every step of a push, as the reference.
+    bool reference = false;
     Vec3d a_mm, b_mm;  // the sphere's centre swept from a to b
     double radius_mm = 0.0;
     double reach_mm = 0.0;  // radius plus half a voxel diagonal: what it covers in part
+    // Squared distances from the segment beyond which coverage is 0 and within which it is 1.
+    double zero_beyond_mm2 = 0.0, whole_within_mm2 = -1.0;
     Vec3d push;             // unit direction the removed material moves
     double step_mm = 0.0;   // the push's march step
     openvdb::Coord lo, hi;  // index box of the reach
@@ -195,6 +200,8 @@ class MassGrid {
   /// voxel's width along the distance direction); all in mm from the grid origin.
   double tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm,
                        double radius_mm) const;
+  /// tool_coverage for this sweep, without a square root where it is 0 or 1.
+  double sweep_coverage(const Sweep& s, const Vec3d& p_mm) const;
   /// The k range of column (i, j) within the sweep's reach (one voxel of slack each way);
   /// false if none.
   bool column_span(const Sweep& s, int i, int j, int& k_lo, int& k_hi) const;

@@ -80,19 +80,18 @@ std::uint32_t column_bits(int k_lo, int k_hi, int k0) {
   return ((2u << hi) - 1u) & ~((1u << lo) - 1u);
 }
 
-// MassGrid::tool_coverage, here so deletion's loops inline it (most of their time).
-inline double coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm, double radius_mm,
-                       const Vec3d& voxel_mm) {
-  Vec3d r;
-  if (a_mm == b_mm) {
-    r = p_mm - a_mm;  // what the segment's formula gives for t = 0 and ab = 0, bit for bit
-  } else {
-    const Vec3d ab = b_mm - a_mm;
-    const double len2 = ab.squaredNorm();
-    const double t = len2 > 0.0 ? std::clamp((p_mm - a_mm).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    r = p_mm - (a_mm + t * ab);
-  }
-  const double dist = r.norm();
+// The vector from the segment ab's nearest point to p.
+inline Vec3d from_segment(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm) {
+  // A sphere: what the segment's formula gives for t = 0 and ab = 0, bit for bit.
+  if (a_mm == b_mm) return p_mm - a_mm;
+  const Vec3d ab = b_mm - a_mm;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0.0 ? std::clamp((p_mm - a_mm).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return p_mm - (a_mm + t * ab);
+}
+
+// MassGrid::tool_coverage for the vector r from the segment (dist = |r|, as r.norm() is).
+inline double coverage_at(const Vec3d& r, double dist, double radius_mm, const Vec3d& voxel_mm) {
   // The voxel's extent across the tool's surface: the width of the box h along r.
   const double width = dist > 0.0 ? r.cwiseAbs().dot(voxel_mm) / dist : voxel_mm.maxCoeff();
   return std::clamp((radius_mm - dist) / width + 0.5, 0.0, 1.0);
@@ -105,7 +104,19 @@ static_assert(kLeafSide == 8, "a leaf's column is one byte of its value mask");
 
 double MassGrid::tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d& b_mm,
                                double radius_mm) const {
-  return coverage(p_mm, a_mm, b_mm, radius_mm, voxel_size_mm_);
+  const Vec3d r = from_segment(p_mm, a_mm, b_mm);
+  return coverage_at(r, r.norm(), radius_mm, voxel_size_mm_);
+}
+
+double MassGrid::sweep_coverage(const Sweep& s, const Vec3d& p_mm) const {
+  // A voxel's width across the surface is at most |h|, so the ramp is 0 beyond r + |h|/2 and
+  // 1 within r - |h|/2: those need no square root. A micron of margin leaves the rounding
+  // at the bounds to the formula, which gives the same 0 or 1 there.
+  const Vec3d r = from_segment(p_mm, s.a_mm, s.b_mm);
+  const double dist2 = r.squaredNorm();
+  if (dist2 >= s.zero_beyond_mm2) return 0.0;
+  if (dist2 <= s.whole_within_mm2) return 1.0;
+  return coverage_at(r, std::sqrt(dist2), s.radius_mm, voxel_size_mm_);
 }
 
 std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
@@ -122,6 +133,9 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
   // Voxels the tool's surface crosses are covered in part: the sweep reaches half a voxel
   // diagonal beyond the radius.
   s.reach_mm = s.radius_mm + 0.5 * voxel_size_mm_.norm();
+  s.zero_beyond_mm2 = (s.reach_mm + 1e-3) * (s.reach_mm + 1e-3);
+  const double whole_within_mm = s.radius_mm - 0.5 * voxel_size_mm_.norm() - 1e-3;
+  s.whole_within_mm2 = whole_within_mm > 0.0 ? whole_within_mm * whole_within_mm : -1.0;
   // The last sweep's core, where it covered every voxel whole (less a thousandth of a
   // millimetre for rounding).
   s.core_a_mm = last_from_mm_;
@@ -144,7 +158,8 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
                         static_cast<int>(std::floor(lo.z())));
   s.hi = openvdb::Coord(static_cast<int>(std::ceil(hi.x())), static_cast<int>(std::ceil(hi.y())),
                         static_cast<int>(std::ceil(hi.z())));
-  const std::size_t emptied = skip_swept_voxels_ ? delete_in_leaves(s) : delete_every_voxel(s);
+  s.reference = !skip_swept_voxels_;
+  const std::size_t emptied = s.reference ? delete_every_voxel(s) : delete_in_leaves(s);
   work_.deleted_voxels += emptied;
   sweep_empty_ = true;
   return emptied;
@@ -241,7 +256,8 @@ bool MassGrid::delete_voxel(const Sweep& s, const openvdb::Coord& source) {
   const Vec3d p = Vec3d(source.x(), source.y(), source.z()).cwiseProduct(voxel_size_mm_);
   // Partial volume: the voxel keeps what fits in the part the tool does not cover, so the
   // surface follows the sphere within a voxel and a stroke feels smooth.
-  const double covered = coverage(p, s.a_mm, s.b_mm, s.radius_mm, voxel_size_mm_);
+  const double covered =
+      s.reference ? tool_coverage(p, s.a_mm, s.b_mm, s.radius_mm) : sweep_coverage(s, p);
   if (covered <= 0.0) return false;
   const std::int32_t units = accessor_.getValue(source);
   if (units <= 0) return false;
@@ -263,9 +279,13 @@ bool MassGrid::delete_voxel(const Sweep& s, const openvdb::Coord& source) {
   openvdb::Coord target = source;
   for (int guard = 0; guard < 100000; ++guard) {
     q += s.step_mm * s.push;
-    target = to_coord(q.cwiseQuotient(voxel_size_mm_));
+    const openvdb::Coord next = to_coord(q.cwiseQuotient(voxel_size_mm_));
+    if (next == target && !s.reference) continue;  // the voxel just tested (or the source)
+    target = next;
     const Vec3d centre = Vec3d(target.x(), target.y(), target.z()).cwiseProduct(voxel_size_mm_);
-    if (coverage(centre, s.a_mm, s.b_mm, s.radius_mm, voxel_size_mm_) <= 0.0) break;
+    const double target_covered = s.reference ? tool_coverage(centre, s.a_mm, s.b_mm, s.radius_mm)
+                                              : sweep_coverage(s, centre);
+    if (target_covered <= 0.0) break;
   }
   const std::int64_t target_sum = std::int64_t{accessor_.getValue(target)} + removed;
   HAPVOX_CHECK_LE(target_sum, std::int64_t{INT32_MAX});

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -399,7 +401,7 @@ TEST(Relax, RunsAreDeterministic) {
 // flight when the tool moves.
 TEST(Relax, VisitingOnlyWhatCanChangeSculptsTheSameClayVoxelForVoxel) {
   struct Event {
-    Vec3d from_mm, to_mm, push;
+    Vec3d from_index, to_index, push;  // the tool's path in voxel indices; push in the grid
     double radius_mm;
   };
   std::vector<Event> events;
@@ -410,7 +412,7 @@ TEST(Relax, VisitingOnlyWhatCanChangeSculptsTheSameClayVoxelForVoxel) {
   Vec3d last(20, 24, 27);
   for (int e = 0; e < 30; ++e) {  // coalesced sweeps, the tool shrinking and growing again
     const Vec3d next = last + Vec3d(0.5, 0.4, -0.2 + 0.02 * e);
-    events.push_back({last, next, (next - last).normalized(), e < 10 ? 8.0 : e < 20 ? 5.0 : 6.5});
+    events.push_back({last, next, next - last, e < 10 ? 8.0 : e < 20 ? 5.0 : 6.5});
     last = next;
   }
   struct Clay {
@@ -418,36 +420,48 @@ TEST(Relax, VisitingOnlyWhatCanChangeSculptsTheSameClayVoxelForVoxel) {
     std::int64_t total_units = 0;
     std::vector<std::pair<openvdb::Coord, std::int32_t>> voxels;  // active, in tree order
   };
-  auto run = [&](bool skip) {
-    RelaxOptions options;
-    options.skip_swept_voxels = skip;
-    MassGrid mass(generate_volume("block:dims=48"), options);  // face at z = 23.5
-    for (const Event& e : events) {
-      SurfaceChange c = change_at(e.to_mm, e.push, e.radius_mm);
-      c.from_mm = e.from_mm;
-      mass.apply_deletion(c);
-      mass.relax(20);
-    }
-    Clay clay{mass.work(), mass.total_mass_units(), {}};
-    for (auto it = mass.grid().cbeginValueOn(); it; ++it) {
-      clay.voxels.emplace_back(it.getCoord(), *it);
-    }
-    return clay;
-  };
-  const Clay all = run(false);
-  const Clay skipping = run(true);
-  std::printf("voxels tested: %llu visiting all, %llu visiting what can change; %llu deleted\n",
-              static_cast<unsigned long long>(all.work.swept_voxels),
-              static_cast<unsigned long long>(skipping.work.swept_voxels),
-              static_cast<unsigned long long>(all.work.deleted_voxels));
-  EXPECT_EQ(all.work.deleted_voxels, skipping.work.deleted_voxels);
-  EXPECT_EQ(all.work.moved_units, skipping.work.moved_units);
-  EXPECT_EQ(all.work.relaxed_voxels, skipping.work.relaxed_voxels);  // relaxation as before
-  EXPECT_EQ(all.work.flow_visits, skipping.work.flow_visits);
-  EXPECT_EQ(all.total_units, skipping.total_units);
-  EXPECT_TRUE(all.voxels == skipping.voxels);
-  // The 16 mm tool's 0.05 mm steps test a few voxels per column, not the whole sphere.
-  EXPECT_LT(skipping.work.swept_voxels * 3, all.work.swept_voxels);
+  // The block (face at index z = 23.5) on unit voxels, and on anisotropic ones in a rotated,
+  // offset frame (the tool's path mapped along, its radius scaled with the voxels).
+  const Vec3d voxel_mm(0.6, 0.8, 0.5);
+  const Mat3d rotated = Eigen::AngleAxisd(0.3, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
+  const DensityField unit = generate_volume("block:dims=48");
+  const DensityField skewed(unit.grid().deepCopy(), voxel_mm, Vec3d(3, -2, 1), unit.dims(),
+                            rotated);
+  for (const DensityField* field : {&unit, &skewed}) {
+    const double scale = field == &unit ? 1.0 : 0.6;
+    auto run = [&](bool skip) {
+      RelaxOptions options;
+      options.skip_swept_voxels = skip;
+      MassGrid mass(*field, options);
+      for (const Event& e : events) {
+        SurfaceChange c = change_at(field->index_to_world(e.to_index), field->direction() * e.push,
+                                    scale * e.radius_mm);
+        c.from_mm = field->index_to_world(e.from_index);
+        mass.apply_deletion(c);
+        mass.relax(20);
+      }
+      Clay clay{mass.work(), mass.total_mass_units(), {}};
+      for (auto it = mass.grid().cbeginValueOn(); it; ++it) {
+        clay.voxels.emplace_back(it.getCoord(), *it);
+      }
+      return clay;
+    };
+    const Clay all = run(false);
+    const Clay ours = run(true);
+    std::printf("voxels tested: %llu visiting all, %llu visiting what can change; %llu deleted\n",
+                static_cast<unsigned long long>(all.work.swept_voxels),
+                static_cast<unsigned long long>(ours.work.swept_voxels),
+                static_cast<unsigned long long>(all.work.deleted_voxels));
+    EXPECT_GT(all.work.deleted_voxels, 10000u);
+    EXPECT_EQ(all.work.deleted_voxels, ours.work.deleted_voxels);
+    EXPECT_EQ(all.work.moved_units, ours.work.moved_units);
+    EXPECT_EQ(all.work.relaxed_voxels, ours.work.relaxed_voxels);  // relaxation as before
+    EXPECT_EQ(all.work.flow_visits, ours.work.flow_visits);
+    EXPECT_EQ(all.total_units, ours.total_units);
+    EXPECT_TRUE(all.voxels == ours.voxels);
+    // The tool's 0.05 voxel steps test a few voxels per column, not the whole sphere.
+    EXPECT_LT(ours.work.swept_voxels * 3, all.work.swept_voxels);
+  }
 }
 
 }  // namespace
