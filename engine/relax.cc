@@ -70,13 +70,6 @@ void MassGrid::activate_if_over(const openvdb::Coord& ijk, std::int32_t units) {
   if (units > threshold_units_) queue_.push(Entry{units, ijk});
 }
 
-bool MassGrid::inside_tool(const openvdb::Coord& ijk) const {
-  if (!has_tool_) return false;
-  const Vec3d p = Vec3d(ijk.x(), ijk.y(), ijk.z()).cwiseProduct(voxel_size_mm_);
-  return tool_coverage(p, tool_from_index_.cwiseProduct(voxel_size_mm_),
-                       tool_to_index_.cwiseProduct(voxel_size_mm_), tool_radius_mm_) > 0.0;
-}
-
 void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
   const std::int64_t excess = static_cast<std::int64_t>(units) - normal_units_;
   if (excess <= 0) return;
@@ -89,7 +82,7 @@ void MassGrid::relax_voxel(const openvdb::Coord& v, std::int32_t units) {
       for (int dx = -1; dx <= 1; ++dx) {
         if (dx == 0 && dy == 0 && dz == 0) continue;
         const openvdb::Coord n = v.offsetBy(dx, dy, dz);
-        if (inside_tool(n)) continue;
+        if (under_tool(n)) continue;
         if (rule_ == RelaxRule::kFlowToRoom && carved_accessor_.isValueOn(n)) continue;
         neighbours[count] = n;
         values[count] = accessor_.getValue(n);
@@ -225,7 +218,7 @@ std::size_t MassGrid::advance_flow(std::size_t max_steps) {
       const openvdb::Coord n = u.offsetBy(step[0], step[1], step[2]);
       if (visited.isValueOn(n)) continue;
       visited.setValueOn(n);
-      if (inside_tool(n)) continue;
+      if (under_tool(n)) continue;
       std::int32_t units = accessor_.getValue(n);
       if (units < normal_units_ && !carved_accessor_.isValueOn(n)) {
         const std::int64_t deposit = std::min<std::int64_t>(normal_units_ - units, flow_units_);
@@ -252,7 +245,7 @@ void MassGrid::end_flow() {
     set(back, static_cast<std::int32_t>(units));
     walled_in_.push_back(back);
     // A source the tool has covered since: the sweep holds material (apply_deletion).
-    if (inside_tool(back)) sweep_empty_ = false;
+    if (under_tool(back)) sweep_empty_ = false;
     flow_units_ = 0;
   }
   flow_active_ = false;

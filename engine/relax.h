@@ -159,6 +159,10 @@ class MassGrid {
     return static_cast<float>(accessor_.getValue(ijk)) / kNormalDensityUnits;
   }
 
+  /// True when the last deletion's sweep covers any part of the voxel (coverage above 0):
+  /// relaxation and the flow never give to it until the next deletion moves the tool.
+  bool under_tool(const openvdb::Coord& ijk) const;
+
   const RelaxWork& work() const { return work_; }
   const openvdb::Int32Grid& grid() const { return *grid_; }
   /// The density as a float field (for writing .vdb / NRRD), same geometry as the input.
@@ -214,8 +218,6 @@ class MassGrid {
   std::size_t delete_in_leaves(const Sweep& s);
   /// Empties one voxel in partial volume and pushes what it loses; true if it lost any.
   bool delete_voxel(const Sweep& s, const openvdb::Coord& source);
-  /// Any part of the voxel under the tool's last swept sphere.
-  bool inside_tool(const openvdb::Coord& ijk) const;
   void relax_voxel(const openvdb::Coord& ijk, std::int32_t units);
   void start_flow();
   std::size_t advance_flow(std::size_t max_steps);
@@ -255,7 +257,7 @@ class MassGrid {
   openvdb::MaskGrid::Accessor carved_accessor_ = carved_->getAccessor();
   // Over-dense voxels walled in by the tool, queued again after the next deletion.
   std::vector<openvdb::Coord> walled_in_;
-  // The tool's last swept sphere (index space), which relaxation must not fill.
+  // The tool's last swept sphere (mm, from index space), which relaxation must not fill.
   bool has_tool_ = false;
   // Every voxel the last sweep covered whole is still empty (apply_deletion's skip), and
   // that sweep exactly as its coverage was computed.
@@ -263,9 +265,10 @@ class MassGrid {
   bool skip_swept_voxels_ = true;
   Vec3d last_from_mm_ = Vec3d::Zero();
   Vec3d last_to_mm_ = Vec3d::Zero();
-  Vec3d tool_from_index_ = Vec3d::Zero();
-  Vec3d tool_to_index_ = Vec3d::Zero();
+  Vec3d tool_a_mm_ = Vec3d::Zero();
+  Vec3d tool_b_mm_ = Vec3d::Zero();
   double tool_radius_mm_ = 0.0;
+  double tool_covers_within_mm2_ = -1.0, tool_misses_beyond_mm2_ = 0.0;  // under_tool's bounds
 };
 
 }  // namespace hapvox::engine

@@ -108,6 +108,19 @@ double MassGrid::tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d
   return coverage_at(r, r.norm(), radius_mm, voxel_size_mm_);
 }
 
+bool MassGrid::under_tool(const openvdb::Coord& ijk) const {
+  if (!has_tool_) return false;
+  const Vec3d p = Vec3d(ijk.x(), ijk.y(), ijk.z()).cwiseProduct(voxel_size_mm_);
+  const Vec3d r = from_segment(p, tool_a_mm_, tool_b_mm_);
+  const double dist2 = r.squaredNorm();
+  // Coverage is above 0 where the distance is below r + w/2, the width w between the
+  // smallest voxel side and |h|: surely so within r + min h / 2, never beyond r + |h|/2 (a
+  // micron of margin each way); relaxation asks this of every neighbour it gives to.
+  if (dist2 <= tool_covers_within_mm2_) return true;
+  if (dist2 >= tool_misses_beyond_mm2_) return false;
+  return coverage_at(r, std::sqrt(dist2), tool_radius_mm_, voxel_size_mm_) > 0.0;
+}
+
 double MassGrid::sweep_coverage(const Sweep& s, const Vec3d& p_mm) const {
   // A voxel's width across the surface is at most |h|, so the ramp is 0 beyond r + |h|/2 and
   // 1 within r - |h|/2: those need no square root. A micron of margin leaves the rounding
@@ -144,9 +157,14 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
   s.skip_core = skip_swept_voxels_ && has_tool_ && sweep_empty_ && s.core_radius_mm > 0.0;
   last_from_mm_ = s.a_mm;
   last_to_mm_ = s.b_mm;
-  tool_from_index_ = s.a_mm.cwiseQuotient(voxel_size_mm_);
-  tool_to_index_ = s.b_mm.cwiseQuotient(voxel_size_mm_);
+  // The sweep relaxation keeps out of, through index space as before issue 29 (the same
+  // endpoints to the last bit, so the same voxels).
+  tool_a_mm_ = s.a_mm.cwiseQuotient(voxel_size_mm_).cwiseProduct(voxel_size_mm_);
+  tool_b_mm_ = s.b_mm.cwiseQuotient(voxel_size_mm_).cwiseProduct(voxel_size_mm_);
   tool_radius_mm_ = s.radius_mm;
+  const double covers_mm = s.radius_mm + 0.5 * voxel_size_mm_.minCoeff() - 1e-3;
+  tool_covers_within_mm2_ = covers_mm > 0.0 ? covers_mm * covers_mm : -1.0;
+  tool_misses_beyond_mm2_ = (s.reach_mm + 1e-3) * (s.reach_mm + 1e-3);
   has_tool_ = true;
   for (const openvdb::Coord& ijk : walled_in_) activate_if_over(ijk, accessor_.getValue(ijk));
   walled_in_.clear();

@@ -464,5 +464,51 @@ TEST(Relax, VisitingOnlyWhatCanChangeSculptsTheSameClayVoxelForVoxel) {
   }
 }
 
+// Relaxation asks under_tool of every voxel it would give to; it answers from the squared
+// distance where the deletion's coverage ramp f = clamp((R - r)/w + 1/2, 0, 1) is surely
+// above 0 (r < R + min h / 2) or surely 0 (r > R + |h|/2). Everywhere it must agree with
+// f > 0, written out here: for a sphere and a capsule, on unit voxels and on anisotropic ones
+// in a rotated frame, every voxel of a box around the tool.
+TEST(Relax, UnderToolIsWhereTheDeletionsCoverageIsAboveZero) {
+  const DensityField unit = generate_volume("block:dims=48");
+  const DensityField skewed(unit.grid().deepCopy(), Vec3d(0.6, 0.8, 0.5), Vec3d(3, -2, 1),
+                            unit.dims(),
+                            Eigen::AngleAxisd(0.3, Vec3d(1, 2, 3).normalized()).toRotationMatrix());
+  struct Sweep {
+    Vec3d from_index, to_index;
+    double radius_mm;
+  };
+  for (const DensityField* field : {&unit, &skewed}) {
+    const Vec3d h = field->voxel_size_mm();
+    for (const Sweep& sweep : {Sweep{{20.3, 21.7, 22.2}, {20.3, 21.7, 22.2}, 5.0},
+                               Sweep{{18.1, 20.0, 21.0}, {24.6, 23.2, 19.5}, 4.0}}) {
+      MassGrid mass(*field);
+      SurfaceChange c =
+          change_at(field->index_to_world(sweep.to_index), Vec3d(0, 0, -1), sweep.radius_mm);
+      c.from_mm = field->index_to_world(sweep.from_index);
+      mass.apply_deletion(c);
+      const Vec3d a = sweep.from_index.cwiseProduct(h), b = sweep.to_index.cwiseProduct(h);
+      int covered = 0, ramp = 0, wrong = 0;
+      for (int i = 0; i < 48; ++i)
+        for (int j = 0; j < 48; ++j)
+          for (int k = 0; k < 48; ++k) {
+            const Vec3d p = Vec3d(i, j, k).cwiseProduct(h);
+            const double t =
+                std::clamp((p - a).dot(b - a) / std::max((b - a).squaredNorm(), 1e-300), 0.0, 1.0);
+            const Vec3d r = p - (a + t * (b - a));
+            const double dist = r.norm();
+            const double width = r.cwiseAbs().dot(h) / dist;
+            const double f = std::clamp((sweep.radius_mm - dist) / width + 0.5, 0.0, 1.0);
+            covered += f > 0.0;
+            ramp += f > 0.0 && dist > sweep.radius_mm + 0.5 * h.minCoeff();
+            wrong += mass.under_tool({i, j, k}) != (f > 0.0);
+          }
+      EXPECT_EQ(wrong, 0);
+      EXPECT_GT(covered, 300);
+      EXPECT_GT(ramp, 0);  // covered voxels past R + min h / 2, where the formula decides
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hapvox::engine
