@@ -164,7 +164,7 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
   tool_radius_mm_ = s.radius_mm;
   const double covers_mm = s.radius_mm + 0.5 * voxel_size_mm_.minCoeff() - 1e-3;
   tool_covers_within_mm2_ = covers_mm > 0.0 ? covers_mm * covers_mm : -1.0;
-  tool_misses_beyond_mm2_ = (s.reach_mm + 1e-3) * (s.reach_mm + 1e-3);
+  tool_misses_beyond_mm2_ = s.zero_beyond_mm2;  // coverage 0 beyond the same bound
   has_tool_ = true;
   for (const openvdb::Coord& ijk : walled_in_) activate_if_over(ijk, accessor_.getValue(ijk));
   walled_in_.clear();
