@@ -230,8 +230,9 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
 
   const ForceThreadHooks& hooks = options.hooks;
   const std::int64_t period_ns = dt.count();
-  const auto watchdog_ns = static_cast<std::int64_t>(
-      std::llround(std::max(0.0, options.watchdog_periods) * static_cast<double>(period_ns)));
+  const auto watchdog_ns = static_cast<std::int64_t>(std::llround(
+      options.watchdog_periods > 0.0 ? options.watchdog_periods * static_cast<double>(period_ns)
+                                     : std::max(0.0, options.watchdog_ms) * 1e6));
   SchedulerReport scheduler;
   prepare_process(options.scheduler, scheduler);
   ThreadSetupCodes thread_codes;
@@ -444,6 +445,7 @@ ReplaySummary replay_realtime(ForceStage& force, BackgroundStage* background, De
     timing->rate_hz = device.rate_hz();
     timing->lateness = duration_stats(lateness);
     timing->missed_deadlines = missed;
+    timing->watchdog_ms = 1e-6 * static_cast<double>(watchdog_ns);
     timing->watchdog_trips = watchdog_trips;
     timing->watchdog_ramped_ticks = safety.ramp.reduced_ticks();
     timing->stalled_ticks = stalled;

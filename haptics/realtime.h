@@ -30,11 +30,15 @@
 
 namespace hapvox::haptics {
 
+/// The watchdog's default threshold, ms late (docs/realtime.md, "The watchdog").
+inline constexpr double kDefaultWatchdogMs = 4.0;
+
 struct TimingSummary {
   double rate_hz = 0;  // target
   // Force thread. Lateness = actual start - scheduled start of a tick.
   DurationStats lateness;
   std::size_t missed_deadlines = 0;         // ticks that ended after the next tick's deadline
+  double watchdog_ms = 0;                   // the watchdog's threshold this run used
   std::size_t watchdog_trips = 0;           // ticks that overran the watchdog (each starts a ramp)
   std::uint64_t watchdog_ramped_ticks = 0;  // ticks sent ramped down (factor < 1) by trips
   double achieved_rate_hz = 0;
@@ -76,10 +80,15 @@ struct ForceThreadHooks {
 
 struct RealtimeOptions {
   SchedulerOptions scheduler;
-  /// A tick that ends more than this many periods after its deadline counts a watchdog
-  /// trip: its own (late but fresh) force is sent, and from the next tick on the force is
-  /// ramped down to zero and back in at the ramp-in's slope (ForceRamp), never stepped.
-  double watchdog_periods = 1.0;
+  /// A tick that ends more than `watchdog_ms` after its deadline counts a watchdog trip:
+  /// its own (late but fresh) force is sent, and from the next tick on the force is ramped
+  /// down to zero and back in at the ramp-in's slope (ForceRamp), never stepped. A tick
+  /// less late than that sends its force at full scale: the device holds the last force
+  /// meanwhile, as its servo does between commands. Why 4 ms: docs/realtime.md, "The
+  /// watchdog".
+  double watchdog_ms = kDefaultWatchdogMs;
+  /// > 0: the threshold in device periods instead (--watchdog-periods), at any rate.
+  double watchdog_periods = 0.0;
   ForceThreadHooks hooks;
   /// Set by the application (a signal handler, a window's close) to end the loop after the
   /// tick under way; the session keeps every tick run. Null: runs to the device's end.

@@ -45,12 +45,7 @@ struct SculptFlags {
   bool elastic = false;
   double fps = 60.0;
   double tool_speed_mm_s = 200.0;
-  bool watchdog_given = false;  // --watchdog-periods was on the command line
 };
-
-// A FEM segment's ticks wait for its steps (paced lockstep), a few of which outlast a tick
-// (docs/realtime.md): its watchdog trips at 3 periods late unless --watchdog-periods says.
-constexpr double kFemWatchdogPeriods = 3.0;
 
 // NAME.EXT for segment 1, NAME-K.EXT for segment K.
 std::string segment_path(const std::string& path, int k) {
@@ -298,7 +293,6 @@ void run_sculpt(SculptFlags& flags, const std::string& command_line) {
     run.model = fem ? "fem" : "voxel";
     run.plastic = plastic && !fem;
     run.no_tool_refine = true;
-    if (fem && !flags.watchdog_given) run.watchdog_periods = kFemWatchdogPeriods;
     run.fem_only_options.clear();  // the FEM flags are for its segments: kept, not refused
     run.force.options.tool.diameter_mm = diameter_mm;
     run.output = segment_path(f.output, k);
@@ -424,11 +418,7 @@ void add_sculpt_command(CLI::App& app) {
       ->capture_default_str();
   flags->replay.render.size = "800x600";
   add_replay_flags(cmd, &flags->replay, false);
-  const CLI::Option* watchdog = cmd->get_option("--watchdog-periods");
-  cmd->callback([flags, watchdog] {
-    flags->watchdog_given = watchdog->count() > 0;
-    run_sculpt(*flags, command_line());
-  });
+  cmd->callback([flags] { run_sculpt(*flags, command_line()); });
 }
 
 }  // namespace hapvox::cli

@@ -64,6 +64,7 @@ const std::map<std::string, OptionRange>& option_ranges() {
       {"--silence-timeout-s", {0, 1, kOpen}},
       {"--end-after-silence-s", {0, 86400}},
       {"--watchdog-periods", {0, 1e6, kOpen}},
+      {"--watchdog-ms", {0, 1e6, kOpen}},
       {"--cpu", {-1, 1023}},
       {"--tool-speed-mm-s", {0, 1e6, kOpen}},
       // Timing budgets (check-timing).
@@ -71,6 +72,7 @@ const std::map<std::string, OptionRange>& option_ranges() {
       {"--max-miss-rate", {0, 1}},
       {"--min-rate-ratio", {0, 1}},
       {"--max-watchdog-rate", {0, 1}},
+      {"--max-watchdog-per-min", {0, 1e9}},
       // Rendering (replay's --render-* and render's own names).
       {"--render-fps", {0, 240, kOpen}},
       {"--fps", {0, 240, kOpen}},

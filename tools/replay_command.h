@@ -71,7 +71,8 @@ struct ReplayFlags {
   bool no_rt_priority = false;
   int cpu = -1;
   bool no_pin = false;
-  double watchdog_periods = 1.0;
+  double watchdog_ms = haptics::kDefaultWatchdogMs;
+  double watchdog_periods = 0.0;  // > 0: --watchdog-periods, in place of --watchdog-ms
   // The deformation model: "voxel" (Prados) or "fem" (Nakao's proxy mesh).
   std::string model = "voxel";
   FemCliOptions fem_mesh;             // --materials, --labels, --seed, ...

@@ -106,7 +106,8 @@ void check_loop_flags(const ReplayFlags& f) {
   if (f.realtime && f.trace.rate_hz > 10e3) {
     throw InputError("--rate-hz", "a realtime loop runs at most 10000 Hz");
   }
-  check_option_value("--watchdog-periods", f.watchdog_periods);
+  check_option_value("--watchdog-ms", f.watchdog_ms);
+  if (f.watchdog_periods != 0.0) check_option_value("--watchdog-periods", f.watchdog_periods);
   check_option_value("--cpu", f.cpu);
 }
 
@@ -116,6 +117,7 @@ haptics::RealtimeOptions realtime_options(const ReplayFlags& f) {
   realtime_options.scheduler.realtime_policy = !f.no_rt_priority;
   realtime_options.scheduler.pin_cpu = !f.no_pin;
   realtime_options.scheduler.cpu = f.cpu;
+  realtime_options.watchdog_ms = f.watchdog_ms;
   realtime_options.watchdog_periods = f.watchdog_periods;
   return realtime_options;
 }
@@ -189,7 +191,8 @@ void write_summary_attributes(haptics::SessionWriter& session, const ReplayFlags
     session.set_attribute("scheduler_memory_lock", timing.scheduler.memory_lock);
     session.set_attribute("scheduler_policy", timing.scheduler.policy);
     session.set_attribute("scheduler_affinity", timing.scheduler.affinity);
-    session.set_attribute("watchdog_periods", f.watchdog_periods);
+    session.set_attribute("watchdog_ms", timing.watchdog_ms);
+    session.set_attribute("watchdog_periods", timing.watchdog_ms * timing.rate_hz / 1000.0);
   }
 }
 

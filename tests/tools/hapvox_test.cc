@@ -556,6 +556,8 @@ TEST(HapvoxCli, CheckTimingPassesARelaxedBudgetAndFailsAnImpossibleOne) {
             0u)
       << impossible.err;
   EXPECT_NE(impossible.out.find("BROKEN p99 lateness"), std::string::npos) << impossible.out;
+  // The default watchdog budget counts trips a minute (the 4 ms watchdog), not ticks.
+  EXPECT_NE(impossible.out.find(" a minute (budget <= 1.00)"), std::string::npos) << impossible.out;
   // The session is kept for a post-mortem either way.
   EXPECT_TRUE(fs::exists(dir + "/bad.h5"));
   expect_input_error(common + " -o " + dir + "/x.h5 --max-miss-rate 2",

@@ -257,7 +257,8 @@ TEST(SculptCli, TheFemModelPressesInTheWindowAndMSwitchesToTheVoxelModel) {
   EXPECT_EQ(attribute(fem, "model"), "fem");
   EXPECT_EQ(attribute(fem, "fem_schedule"), "lockstep, paced by the clock");
   EXPECT_EQ(attribute(fem, "fem_tool_refine"), "0");
-  EXPECT_EQ(attribute(fem, "watchdog_periods"), "3");  // a tick may wait for a FEM step
+  // A tick may wait for a FEM step: the default watchdog (4 ms, 4 periods) rides that out.
+  EXPECT_EQ(attribute(fem, "watchdog_ms"), "4");
   EXPECT_GT(column_sum(dir + "/s.h5", "/contact"), 200.0);
   double deepest_mm = 0.0;
   for (const double u : haptics::read_session_column(dir + "/s.h5", "/fem/displacement_mm")) {
@@ -291,7 +292,8 @@ TEST(SculptCli, TheFemModelPressesInTheWindowAndMSwitchesToTheVoxelModel) {
   // replays so too.
   const haptics::SessionInfo voxel = haptics::read_session_info(dir + "/s-2.h5");
   EXPECT_EQ(attribute(voxel, "plastic"), "1");
-  EXPECT_EQ(attribute(voxel, "watchdog_periods"), "1");
+  EXPECT_EQ(attribute(voxel, "watchdog_ms"), "4");
+  EXPECT_EQ(attribute(voxel, "watchdog_periods"), "4");
   EXPECT_GT(std::stoll(attribute(voxel, "summary_plastic_events")), 10);
   const testing::CommandResult again2 =
       run_hapvox("replay " + dir + "/s-2.csv --volume " + volume + " --materials " + materials +
