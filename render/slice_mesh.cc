@@ -146,6 +146,7 @@ void build_slice_mesh(const Eigen::Vector3d& frame_lo, const Eigen::Vector3d& fr
   HAPVOX_CHECK_GT(options.patches, 0);
   mesh.vertices.clear();
   mesh.indices.clear();
+  mesh.slice_first_index.clear();
   const Eigen::Vector3d n = view_direction.normalized();
   // In-plane basis, the same for every slice.
   const Eigen::Vector3d helper =
@@ -181,6 +182,7 @@ void build_slice_mesh(const Eigen::Vector3d& frame_lo, const Eigen::Vector3d& fr
     const std::vector<Eigen::Vector3d> polygon = slice_polygon(lo, hi, n, s);
     if (polygon.empty()) continue;
     ++mesh.slices;
+    mesh.slice_first_index.push_back(static_cast<std::uint32_t>(mesh.indices.size()));
     const Eigen::Vector3d origin = s * n;
     double u0 = INFINITY, u1 = -INFINITY, w0 = INFINITY, w1 = -INFINITY;
     for (const auto& p : polygon) {
@@ -221,6 +223,7 @@ void build_slice_mesh(const Eigen::Vector3d& frame_lo, const Eigen::Vector3d& fr
     }
     push_grid(mesh, origin, eu, ew, us, ws, tool, options, true);
   }
+  mesh.slice_first_index.push_back(static_cast<std::uint32_t>(mesh.indices.size()));
 }
 
 }  // namespace hapvox::render

@@ -74,6 +74,9 @@ struct SliceVertex {
 struct SliceMesh {
   std::vector<SliceVertex> vertices;
   std::vector<std::uint32_t> indices;  // triangles, slices in back-to-front order
+  /// Where each slice's triangles start in `indices`, one entry per slice and the end
+  /// (`indices.size()`) last: what front-to-back drawing reorders (render/front_to_back.h).
+  std::vector<std::uint32_t> slice_first_index;
   int slices = 0;
   double slice_spacing_mm = 0.0;
 };

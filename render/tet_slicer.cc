@@ -155,6 +155,7 @@ void TetSlicer::build(const Vector3d& lo, const Vector3d& hi, const Vector3d& vi
   const engine::fem::TetMesh& mesh = *mesh_;
   out.vertices.clear();
   out.indices.clear();
+  out.slice_first_index.clear();
   const Vector3d n = view_direction.normalized();
   // The plane lattice of build_slice_mesh: `slices` planes across the frame, farthest first.
   double frame_min = INFINITY, frame_max = -INFINITY;
@@ -183,6 +184,7 @@ void TetSlicer::build(const Vector3d& lo, const Vector3d& hi, const Vector3d& vi
   }
   std::vector<Corner> polygon, scratch;
   for (int k = 0; k < slices; ++k) {
+    out.slice_first_index.push_back(static_cast<std::uint32_t>(out.indices.size()));
     const double s = frame_max - (k + 0.5) * spacing;
     // Plain polygons through the blocks nothing deformed, cut to the visible box.
     for (int z = 0; z < blocks_.z(); ++z) {
@@ -257,6 +259,7 @@ void TetSlicer::build(const Vector3d& lo, const Vector3d& hi, const Vector3d& vi
       }
     }
   }
+  out.slice_first_index.push_back(static_cast<std::uint32_t>(out.indices.size()));
 }
 
 }  // namespace hapvox::render

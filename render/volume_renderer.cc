@@ -8,6 +8,7 @@
 #include "engine/check.h"
 #include "render/gl.h"
 #include "render/gl_context.h"
+#include "render/gl_program.h"
 
 namespace hapvox::render {
 namespace {
@@ -28,9 +29,16 @@ void main() {
 }
 )";
 
-// Premultiplied output for back-to-front "over" blending. The transfer function's opacity
-// is per voxel of path: alpha' = 1 - (1 - alpha)^(slice spacing / voxel size).
+// Premultiplied output, for "over" (back to front) or "under" (front to back) blending. The
+// transfer function's opacity is per voxel of path: alpha' = 1 - (1 - alpha)^(slice spacing / voxel
+// size).
 const char* const kSliceFragmentShader = R"(#version 330 core
+#extension GL_ARB_shader_image_load_store : enable
+#ifdef GL_ARB_shader_image_load_store
+// Depth test before the shader runs, even though it may discard: slices never write depth,
+// and a fragment behind an opaque pixel (render/front_to_back.h) is then never shaded.
+layout(early_fragment_tests) in;
+#endif
 in vec3 tex;
 in vec3 grad_w;
 out vec4 color;
@@ -90,41 +98,6 @@ void main() {
 }
 )";
 
-GLuint compile(GLenum kind, const char* source) {
-  const GLuint shader = glCreateShader(kind);
-  glShaderSource(shader, 1, &source, nullptr);
-  glCompileShader(shader);
-  GLint ok = 0;
-  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char log[2048] = "";
-    glGetShaderInfoLog(shader, sizeof log, nullptr, log);
-    glDeleteShader(shader);
-    throw RenderError(std::string("OpenGL: shader does not compile: ") + log);
-  }
-  return shader;
-}
-
-GLuint link(const char* vertex, const char* fragment) {
-  const GLuint vs = compile(GL_VERTEX_SHADER, vertex);
-  const GLuint fs = compile(GL_FRAGMENT_SHADER, fragment);
-  const GLuint program = glCreateProgram();
-  glAttachShader(program, vs);
-  glAttachShader(program, fs);
-  glLinkProgram(program);
-  glDeleteShader(vs);
-  glDeleteShader(fs);
-  GLint ok = 0;
-  glGetProgramiv(program, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    char log[2048] = "";
-    glGetProgramInfoLog(program, sizeof log, nullptr, log);
-    glDeleteProgram(program);
-    throw RenderError(std::string("OpenGL: shaders do not link: ") + log);
-  }
-  return program;
-}
-
 void set_matrix(GLuint program, const char* name, const Eigen::Matrix4d& m) {
   const Eigen::Matrix4f f = m.cast<float>();  // column-major, as GL expects
   glUniformMatrix4fv(glGetUniformLocation(program, name), 1, GL_FALSE, f.data());
@@ -133,6 +106,10 @@ void set_vec3(GLuint program, const char* name, const Eigen::Vector3d& v) {
   glUniform3f(glGetUniformLocation(program, name), static_cast<float>(v.x()),
               static_cast<float>(v.y()), static_cast<float>(v.z()));
 }
+
+// Slices drawn between two saturation masks (render/front_to_back.h): each mask costs a
+// copy of the colour buffer and a full-screen pass.
+constexpr int kSlicesPerMask = 16;
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -199,8 +176,9 @@ VolumeRenderer::VolumeRenderer(const engine::DensityField& field, const Transfer
   glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
 
-  g.slice_program = link(kSliceVertexShader, kSliceFragmentShader);
-  g.tool_program = link(kToolVertexShader, kToolFragmentShader);
+  g.slice_program = link_program(kSliceVertexShader, kSliceFragmentShader);
+  g.tool_program = link_program(kToolVertexShader, kToolFragmentShader);
+  saturation_ = std::make_unique<SaturationMask>();
 
   glGenVertexArrays(1, &g.slice_vao);
   glBindVertexArray(g.slice_vao);
@@ -472,15 +450,28 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   } else {
     mesh_.vertices.clear();
     mesh_.indices.clear();
+    mesh_.slice_first_index.clear();
   }
   frame.mesh_ms = ms_since(tm);
   frame.vertices = mesh_.vertices.size();
   frame.triangles = mesh_.indices.size() / 3;
 
+  // Front to back the background goes under everything at the end (composite_background).
+  const bool front_to_back = settings.early_termination && mesh_.slice_first_index.size() >= 2;
+  if (front_to_back) {
+    order_front_to_back(mesh_, kSlicesPerMask, front_to_back_indices_, chunk_ends_);
+  }
+  const std::vector<std::uint32_t>& indices =
+      front_to_back ? front_to_back_indices_ : mesh_.indices;
+
   ensure_framebuffer(settings.width, settings.height);
   glBindFramebuffer(GL_FRAMEBUFFER, g.framebuffer);
   glViewport(0, 0, settings.width, settings.height);
-  glClearColor(settings.background[0], settings.background[1], settings.background[2], 1.0f);
+  if (front_to_back) {
+    glClearColor(0.0f, 0.0f, 0.0f, 0.0f);
+  } else {
+    glClearColor(settings.background[0], settings.background[1], settings.background[2], 1.0f);
+  }
   glClearDepth(1.0);
   glDepthMask(GL_TRUE);  // a clear honours the write mask the last frame's slices left off
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
@@ -498,10 +489,13 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   const Eigen::Vector3d light = -view_dir;  // headlight
   const Eigen::Vector3d half_dir = light;   // eye and light coincide
 
-  if (settings.draw_tool && tool.radius_mm > 0.0) {
+  // The tool is opaque. Back to front it is drawn first and the slices blend over it; front
+  // to back its depth goes first (slices behind it fail the test) and its colour last,
+  // under the slices in front of it.
+  const bool draw_tool = settings.draw_tool && tool.radius_mm > 0.0;
+  const auto draw_tool_pass = [&](bool colour) {
     glEnable(GL_DEPTH_TEST);
-    glDepthMask(GL_TRUE);
-    glDisable(GL_BLEND);
+    glColorMask(colour, colour, colour, colour);
     glUseProgram(g.tool_program);
     set_matrix(g.tool_program, "mvp", mvp);
     set_vec3(g.tool_program, "center_mm", tool.center_mm);
@@ -511,12 +505,19 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
     set_vec3(g.tool_program, "tool_rgb", Eigen::Vector3d(0.45, 0.6, 0.85));
     glBindVertexArray(g.tool_vao);
     glDrawElements(GL_TRIANGLES, g.tool_index_count, GL_UNSIGNED_INT, nullptr);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  };
+  glDepthFunc(GL_LESS);
+  if (draw_tool) {
+    glDepthMask(GL_TRUE);
+    glDisable(GL_BLEND);
+    draw_tool_pass(!front_to_back);
   }
 
   auto tu = std::chrono::steady_clock::now();
   glBindVertexArray(g.slice_vao);
   const std::size_t vbytes = mesh_.vertices.size() * sizeof(SliceVertex);
-  const std::size_t ibytes = mesh_.indices.size() * sizeof(std::uint32_t);
+  const std::size_t ibytes = indices.size() * sizeof(std::uint32_t);
   glBindBuffer(GL_ARRAY_BUFFER, g.slice_vbo);
   if (vbytes > g.slice_vbo_bytes) {
     g.slice_vbo_bytes = vbytes;
@@ -527,15 +528,18 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
     g.slice_ibo_bytes = ibytes;
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(ibytes), nullptr, GL_STREAM_DRAW);
   }
-  glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ibytes),
-                  mesh_.indices.data());
+  glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(ibytes), indices.data());
   frame.upload_ms = ms_since(tu);
 
   auto td = std::chrono::steady_clock::now();
   glEnable(GL_DEPTH_TEST);
   glDepthMask(GL_FALSE);  // slices are blended, never hide each other
   glEnable(GL_BLEND);
-  glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  if (front_to_back) {
+    glBlendFunc(GL_ONE_MINUS_DST_ALPHA, GL_ONE);  // under
+  } else {
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // over
+  }
   glUseProgram(g.slice_program);
   set_matrix(g.slice_program, "mvp", mvp);
   set_vec3(g.slice_program, "volume_lo_mm", volume_.lo_mm);
@@ -560,8 +564,22 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   glActiveTexture(GL_TEXTURE2);
   glBindTexture(GL_TEXTURE_3D, settings.shadows.enabled ? g.shadow_texture : g.unlit_texture);
   glActiveTexture(GL_TEXTURE0);
-  glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(mesh_.indices.size()), GL_UNSIGNED_INT,
-                 nullptr);
+  if (front_to_back) {
+    std::size_t begin = 0;
+    for (std::size_t c = 0; c < chunk_ends_.size(); ++c) {
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(chunk_ends_[c] - begin), GL_UNSIGNED_INT,
+                     reinterpret_cast<void*>(begin * sizeof(std::uint32_t)));
+      begin = chunk_ends_[c];
+      if (c + 1 < chunk_ends_.size()) saturation_->mark(settings.width, settings.height);
+    }
+    if (draw_tool) {
+      glDepthFunc(GL_LEQUAL);  // its own depth, written by its first pass
+      draw_tool_pass(true);
+      glDepthFunc(GL_LESS);
+    }
+  } else {
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(indices.size()), GL_UNSIGNED_INT, nullptr);
+  }
   glFinish();
   frame.draw_ms = ms_since(td);
 
@@ -574,6 +592,7 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
   for (int y = 0; y < settings.height; ++y) {  // GL's first row is the bottom one
     std::copy_n(&rows[(settings.height - 1 - y) * stride], stride, image.pixel(0, y));
   }
+  if (front_to_back) composite_background(settings.background, image);
   for (std::size_t i = 3; i < image.rgba.size(); i += 4) image.rgba[i] = 255;
   frame.read_ms = ms_since(tr);
   check_gl("rendering a frame");

@@ -1,6 +1,7 @@
 #pragma once
-// Draws a density field with view-aligned, back-to-front slices of an FFD slice mesh
-// (render/slice_mesh.h) into an offscreen framebuffer: a 3D texture holds density and its
+// Draws a density field with view-aligned slices of an FFD slice mesh (render/slice_mesh.h),
+// front to back with early termination (render/front_to_back.h), into an offscreen
+// framebuffer: a 3D texture holds density and its
 // precomputed gradient, a 1D texture the transfer function; Blinn-Phong shading from the
 // gradient with a headlight, optionally darkened by volume shadows from a light above
 // (render/shadow_volume.h); the tool drawn as a shaded sphere.
@@ -19,6 +20,7 @@
 
 #include "engine/density_field.h"
 #include "render/camera.h"
+#include "render/front_to_back.h"
 #include "render/image.h"
 #include "render/shadow_volume.h"
 #include "render/slice_mesh.h"
@@ -52,6 +54,9 @@ struct RenderSettings {
   ShadowSettings shadows;
   bool draw_tool = true;
   float background[3] = {0.08f, 0.09f, 0.11f};
+  /// Slices front to back, skipping pixels that are already opaque (render/front_to_back.h);
+  /// false: back to front, every fragment shaded (the baseline `bench render` sets beside).
+  bool early_termination = true;
 };
 
 class VolumeRenderer {
@@ -108,6 +113,9 @@ class VolumeRenderer {
   void update_shadows(int blur_voxels);
 
   std::unique_ptr<Gl> gl_;
+  std::unique_ptr<SaturationMask> saturation_;
+  std::vector<std::uint32_t> front_to_back_indices_;  // this frame's slices, nearest first
+  std::vector<std::size_t> chunk_ends_;               // where each masked run of slices ends
   SliceBuilder slice_builder_;
   DenseVolume volume_;
   Eigen::Vector3d visible_lo_ = Eigen::Vector3d::Zero(), visible_hi_ = Eigen::Vector3d::Zero();

@@ -172,18 +172,21 @@ void run_bench_render(const BenchRenderFlags& f) {
     };
     for (int size : sizes) {
       render::RenderSettings ours = ours_at(size);
-      render::RenderSettings naive = ours;
+      render::RenderSettings back_to_front = ours;  // every fragment shaded, the design before
+      back_to_front.early_termination = false;
+      render::RenderSettings naive = back_to_front;  // the seed's: back to front
       naive.mesh.slices = 500;
       naive.mesh.tessellation = render::Tessellation::kUniform;
       naive.mesh.patches = 20;
       naive.mesh.kernel = render::FfdKernel::kPaper;
       // Reference: 500 slices, our kernel, finely tessellated where it deforms.
-      render::RenderSettings reference = ours;
+      render::RenderSettings reference = back_to_front;
       reference.mesh.slices = 500;
       const render::Image ref = renderer.render(camera, tool, reference);
       for (const auto& [method, settings] :
-           {std::pair<std::string, render::RenderSettings>{
-                "ours: adaptive, " + std::to_string(f.slices) + " slices", ours},
+           {std::pair<std::string, render::RenderSettings>{"ours, back to front, no early end",
+                                                           back_to_front},
+            {"ours: adaptive, " + std::to_string(f.slices) + " slices", ours},
             {"naive: 500 x 20x20, Eq. 10", naive}}) {
         rows.push_back(measure_row(renderer, camera, tool, settings, ref, f.frames, spec, method));
       }
@@ -261,6 +264,7 @@ void run_bench_render(const BenchRenderFlags& f) {
     for (int size : sizes) {
       render::RenderSettings ours = ours_at(size);
       render::RenderSettings reference = ours;
+      reference.early_termination = false;  // the reference sums every slice
       reference.mesh.slices = 500;
       const render::Image ref = deformed.render(camera, grab, reference);
       const RenderBenchRow row =
