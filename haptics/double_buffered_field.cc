@@ -40,13 +40,17 @@ std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
   if (changed != nullptr) changed->insert(changed->end(), fresh_.begin(), fresh_.end());
   if (fresh_.empty() && owed_to_back_.empty()) return 0;
   const int back = 1 - front_.load(std::memory_order_relaxed);
-  const std::size_t written = write_into(back, mass);
-  front_.store(back, std::memory_order_release);
-  // The old front may still be read until the reader announces the new one.
-  while (reading_.load(std::memory_order_acquire) != back &&
+  // The back buffer was the front until the last publication: the reader may still be in
+  // it until it announces the newer front. It reads every tick, so by now (a slice of work
+  // later) it nearly always has, and the writer does not wait; waiting after the flip
+  // instead slept in 50 us steps through most of a tick on every publication, waking on
+  // the CPU the render thread needs.
+  while (reading_.load(std::memory_order_acquire) == back &&
          !reader_done.load(std::memory_order_acquire)) {
     std::this_thread::sleep_for(std::chrono::microseconds(50));
   }
+  const std::size_t written = write_into(back, mass);
+  front_.store(back, std::memory_order_release);
   owed_to_back_.swap(fresh_);  // the new back buffer still lacks these
   fresh_.clear();
   return written;

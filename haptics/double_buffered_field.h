@@ -7,9 +7,9 @@
 // per change: copying a tree costs milliseconds. Here the reader never waits: each tick
 // it loads which buffer is the front one and announces that it reads it (one atomic load,
 // one atomic store, no allocation). The writer only ever writes the back buffer: it
-// applies the changed voxels, publishes the back buffer as the new front, and waits until
-// the reader has announced the switch before touching the old front, which then gets
-// the same changes at the next publication.
+// applies the changed voxels and publishes the back buffer as the new front. The old
+// front gets the same changes at the next publication, which first waits (if it must)
+// until the reader has announced the switch away from it.
 
 #include <atomic>
 #include <vector>
@@ -34,8 +34,9 @@ class DoubleBufferedField {
     return front;
   }
 
-  /// Writer (relaxation thread): brings the back buffer up to date with `mass`, makes it
-  /// the front, and waits (sleeping) until the reader reads it or `reader_done` is set.
+  /// Writer (relaxation thread): waits (sleeping) until the reader has left the back
+  /// buffer (or `reader_done` is set), brings it up to date with `mass` and makes it the
+  /// front.
   /// Returns the number of voxels written. With `changed`, appends the voxels the mass grid
   /// changed since the last publication (for the render thread's feed).
   std::size_t publish(engine::MassGrid& mass, const std::atomic<bool>& reader_done,

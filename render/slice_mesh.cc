@@ -13,6 +13,18 @@ double support_of(const ToolPose& tool, const SliceMeshOptions& options) {
   return options.support_mm > 0.0 ? options.support_mm : 3.0 * tool.radius_mm;
 }
 
+// Cell size near the tool (kAdaptive): R / 8, or as coarse as max_error_mm allows.
+double fine_spacing(const ToolPose& tool, const SliceMeshOptions& options, double support_mm) {
+  if (options.fine_spacing_mm > 0.0) return options.fine_spacing_mm;
+  const double fine = support_mm / 8.0;
+  const double u_mm = tool.displacement_mm.norm();
+  if (options.max_error_mm <= 0.0 || options.kernel != FfdKernel::kWendland || u_mm <= 0.0) {
+    return fine;
+  }
+  const double within_error = support_mm * std::sqrt(options.max_error_mm / (5.0 * u_mm));
+  return std::clamp(within_error, fine, support_mm / 2.0);
+}
+
 bool deforms(const ToolPose& tool) {
   return tool.radius_mm > 0.0 && tool.in_contact && tool.displacement_mm.squaredNorm() > 0.0;
 }
@@ -171,7 +183,7 @@ void build_slice_mesh(const Eigen::Vector3d& frame_lo, const Eigen::Vector3d& fr
   const bool displace = deforms(tool);
   const double support = support_of(tool, options);
   const double reach = tool.radius_mm + support;  // farthest point the kernel moves
-  const double fine = options.fine_spacing_mm > 0.0 ? options.fine_spacing_mm : support / 8.0;
+  const double fine = fine_spacing(tool, options, support);
   std::vector<double> us, ws;
   // Farthest from the eye first: n points away from it, so from s_max down.
   const int first = std::max(0, static_cast<int>(std::floor((frame_max - s_max) / spacing)));

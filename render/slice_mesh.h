@@ -44,7 +44,12 @@ struct SliceMeshOptions {
   FfdKernel kernel = FfdKernel::kWendland;
   double support_mm = 0.0;       // R of the Wendland kernel; 0: 3 x the tool radius
   double fine_spacing_mm = 0.0;  // kAdaptive cell size near the tool; 0: R / 8
-  double voxel_mm = 1.0;         // l of the paper's kernel
+  /// kAdaptive, > 0: cells may grow past R / 8 (to at most R / 2) while the mesh's linear
+  /// interpolation of the displacement stays within this many mm of the kernel's:
+  /// |w u - I(w u)| <= 5 (h / R)^2 |u| (a triangle of legs h: h^2 / 4 times the largest
+  /// second derivative of the Wendland weight, 20 / R^2). The renderer passes half a pixel.
+  double max_error_mm = 0.0;
+  double voxel_mm = 1.0;  // l of the paper's kernel
 };
 
 /// Displacement weight w at distance d_mm from the tool's surface.

@@ -445,7 +445,14 @@ Image VolumeRenderer::render(const OrbitCamera& camera, const ToolPose& tool,
     if (slice_builder_) {
       slice_builder_(lo, hi, view_dir, settings.mesh.slices, mesh_);
     } else {
-      build_slice_mesh(volume_.lo_mm, volume_.hi_mm, lo, hi, view_dir, tool, settings.mesh, mesh_);
+      SliceMeshOptions mesh_options = settings.mesh;
+      if (settings.ffd_error_px > 0.0 && mesh_options.max_error_mm <= 0.0) {
+        // One pixel's size at the tool's distance from the eye.
+        const double pixel_mm = 2.0 * (camera.eye_mm() - tool.center_mm).norm() *
+                                std::tan(0.5 * camera.fov_y_deg * M_PI / 180.0) / settings.height;
+        mesh_options.max_error_mm = settings.ffd_error_px * pixel_mm;
+      }
+      build_slice_mesh(volume_.lo_mm, volume_.hi_mm, lo, hi, view_dir, tool, mesh_options, mesh_);
     }
   } else {
     mesh_.vertices.clear();

@@ -57,6 +57,9 @@ struct RenderSettings {
   /// Slices front to back, skipping pixels that are already opaque (render/front_to_back.h);
   /// false: back to front, every fragment shaded (the baseline `bench render` sets beside).
   bool early_termination = true;
+  /// The FFD mesh near the tool is as coarse as keeps its displacement within this many
+  /// pixels of the kernel's, at the tool (SliceMeshOptions::max_error_mm); 0: R / 8 cells.
+  double ffd_error_px = 0.5;
 };
 
 class VolumeRenderer {

@@ -182,6 +182,7 @@ void run_bench_render(const BenchRenderFlags& f) {
       // Reference: 500 slices, our kernel, finely tessellated where it deforms.
       render::RenderSettings reference = back_to_front;
       reference.mesh.slices = 500;
+      reference.ffd_error_px = 0.0;  // R / 8 cells
       const render::Image ref = renderer.render(camera, tool, reference);
       for (const auto& [method, settings] :
            {std::pair<std::string, render::RenderSettings>{"ours, back to front, no early end",

@@ -232,8 +232,9 @@ haptics::RenderLoop FrameRecorder::realtime_loop(double fps) {
       draw(tool);
       timing.record_frame(feed.start, begin, tool.tick);
       if (finishing) break;
-      // Absolute deadlines; a frame that ran long is not made up for.
-      next = std::max(next + period, Clock::now());
+      // Absolute deadlines: a frame that ran long is made up for by starting the next one
+      // at once, but by one period at most (a long stall is not followed by a burst).
+      next = std::max(next + period, Clock::now() - period);
       while (Clock::now() < next && !feed.done.load(std::memory_order_acquire)) {
         std::this_thread::sleep_for(
             std::min<Clock::duration>(next - Clock::now(), std::chrono::milliseconds(5)));
