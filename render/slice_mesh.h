@@ -1,6 +1,7 @@
 #pragma once
 // The FFD slice mesh (Prados et al., interactive elastic deformation, section 5): the
-// volume is drawn as view-aligned slices, back to front; each slice is split into
+// volume is drawn as view-aligned slices (built farthest first; the renderer draws them
+// front to back, render/front_to_back.h); each slice is split into
 // patches whose vertices are moved by the tool's current elastic displacement, while each
 // vertex keeps the texture coordinate of its undeformed position. Moving a vertex from P
 // to P + w(P) u therefore shows the material of P at its displaced place (Eq. 9-10).

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "engine/volume_io.h"
+#include "haptics/session.h"
 #include "haptics/trace.h"
 #include "test_data.h"
 
@@ -557,13 +558,37 @@ TEST(HapvoxCli, CheckTimingPassesARelaxedBudgetAndFailsAnImpossibleOne) {
       << impossible.err;
   EXPECT_NE(impossible.out.find("BROKEN p99 lateness"), std::string::npos) << impossible.out;
   // The default watchdog budget counts trips a minute (the 4 ms watchdog), not ticks.
-  EXPECT_NE(impossible.out.find(" a minute (budget <= 1.00)"), std::string::npos) << impossible.out;
+  EXPECT_NE(impossible.out.find(" (budget <= 1.00: a minute, over the minutes begun)"),
+            std::string::npos)
+      << impossible.out;
   // The session is kept for a post-mortem either way.
   EXPECT_TRUE(fs::exists(dir + "/bad.h5"));
   expect_input_error(common + " -o " + dir + "/x.h5 --max-miss-rate 2",
                      "--max-miss-rate: must lie in [0, 1], not 2");
   expect_input_error(common + " -o " + dir + "/x.h5 --rate-hz 20000",
                      "--rate-hz: a realtime loop runs at most 10000 Hz");
+}
+
+// The watchdog's threshold, in ms by default or in loop periods, as the session records it
+// (a realtime run at 500 Hz: 3 periods are 6 ms).
+TEST(HapvoxCli, TheWatchdogThresholdIsGivenInMsOrInLoopPeriods) {
+  const std::string dir = scratch_dir();
+  const std::string common = "replay " + press_trace() + " --volume block --realtime -q";
+  const auto attribute = [](const std::string& session, const std::string& name) {
+    for (const auto& [key, value] : haptics::read_session_info(session).attributes) {
+      if (key == name) return value;
+    }
+    return std::string();
+  };
+  ASSERT_EQ(run(common + " --rate-hz 500 --watchdog-periods 3 -o " + dir + "/p.h5").exit_code, 0);
+  EXPECT_EQ(attribute(dir + "/p.h5", "watchdog_ms"), "6");
+  EXPECT_EQ(attribute(dir + "/p.h5", "watchdog_periods"), "3");
+  ASSERT_EQ(run(common + " --watchdog-ms 2.5 -o " + dir + "/m.h5").exit_code, 0);
+  EXPECT_EQ(attribute(dir + "/m.h5", "watchdog_ms"), "2.5");
+  EXPECT_EQ(attribute(dir + "/m.h5", "watchdog_periods"), "2.5");
+  expect_input_error(common + " --watchdog-ms 2 --watchdog-periods 3 -o " + dir + "/x.h5",
+                     "--watchdog-ms excludes --watchdog-periods (see hapvox --help)");
+  EXPECT_FALSE(fs::exists(dir + "/x.h5"));
 }
 
 bool is_png(const std::string& path) {
