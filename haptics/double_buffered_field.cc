@@ -35,10 +35,15 @@ std::size_t DoubleBufferedField::write_into(int index, engine::MassGrid& mass) {
 
 std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
                                          const std::atomic<bool>& reader_done,
-                                         std::vector<openvdb::Coord>* changed) {
+                                         std::vector<openvdb::Coord>* changed,
+                                         std::int64_t event) {
   mass.take_changes(fresh_);
   if (changed != nullptr) changed->insert(changed->end(), fresh_.begin(), fresh_.end());
-  if (fresh_.empty() && owed_to_back_.empty()) return 0;
+  if (fresh_.empty() && owed_to_back_.empty()) {
+    // Both buffers hold the grid as it is: whichever the reader is in has taken the event in.
+    for (auto& stamp : events_) stamp.store(event, std::memory_order_release);
+    return 0;
+  }
   const int back = 1 - front_.load(std::memory_order_relaxed);
   // The back buffer was the front until the last publication: the reader may still be in
   // it until it announces the newer front. It reads every tick, so by now (a slice of work
@@ -50,6 +55,7 @@ std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
     std::this_thread::sleep_for(std::chrono::microseconds(50));
   }
   const std::size_t written = write_into(back, mass);
+  events_[back].store(event, std::memory_order_relaxed);  // made visible by the flip
   front_.store(back, std::memory_order_release);
   owed_to_back_.swap(fresh_);  // the new back buffer still lacks these
   fresh_.clear();
@@ -57,7 +63,8 @@ std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
 }
 
 void DoubleBufferedField::publish_unsynchronized(engine::MassGrid& mass,
-                                                 std::vector<openvdb::Coord>* changed) {
+                                                 std::vector<openvdb::Coord>* changed,
+                                                 std::int64_t event) {
   mass.take_changes(fresh_);
   if (changed != nullptr) changed->insert(changed->end(), fresh_.begin(), fresh_.end());
   const int back = 1 - front_.load(std::memory_order_relaxed);
@@ -66,6 +73,7 @@ void DoubleBufferedField::publish_unsynchronized(engine::MassGrid& mass,
   write_into(1 - back, mass);
   owed_to_back_.clear();
   fresh_.clear();
+  for (auto& stamp : events_) stamp.store(event, std::memory_order_release);
 }
 
 }  // namespace hapvox::haptics

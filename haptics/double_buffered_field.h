@@ -12,6 +12,7 @@
 // until the reader has announced the switch away from it.
 
 #include <atomic>
+#include <cstdint>
 #include <vector>
 
 #include "engine/density_field.h"
@@ -34,17 +35,26 @@ class DoubleBufferedField {
     return front;
   }
 
+  /// Reader: the newest plastic event the buffer it acquired has taken in (the `event`
+  /// of the publication that made it the front; -1 before any). Read while in the buffer.
+  std::int64_t published_event(int index) const {
+    return events_[index].load(std::memory_order_acquire);
+  }
+
   /// Writer (relaxation thread): waits (sleeping) until the reader has left the back
   /// buffer (or `reader_done` is set), brings it up to date with `mass` and makes it the
-  /// front.
+  /// front, stamped with `event`: the newest plastic event the mass grid has taken in.
+  /// With nothing to write both buffers already match the grid: both take the stamp, and
+  /// nothing is flipped.
   /// Returns the number of voxels written. With `changed`, appends the voxels the mass grid
   /// changed since the last publication (for the render thread's feed).
   std::size_t publish(engine::MassGrid& mass, const std::atomic<bool>& reader_done,
-                      std::vector<openvdb::Coord>* changed = nullptr);
+                      std::vector<openvdb::Coord>* changed = nullptr, std::int64_t event = -1);
 
   /// Writer, when no reader runs (before start or after join): both buffers up to date.
   void publish_unsynchronized(engine::MassGrid& mass,
-                              std::vector<openvdb::Coord>* changed = nullptr);
+                              std::vector<openvdb::Coord>* changed = nullptr,
+                              std::int64_t event = -1);
 
   int front() const { return front_.load(std::memory_order_acquire); }
 
@@ -54,6 +64,7 @@ class DoubleBufferedField {
   engine::DensityField buffers_[2];
   std::atomic<int> front_{0};
   std::atomic<int> reading_{0};
+  std::atomic<std::int64_t> events_[2] = {-1, -1};  // each buffer's publication stamp
   // Writer-only: voxels changed since each buffer was last written.
   std::vector<openvdb::Coord> fresh_;
   std::vector<openvdb::Coord> owed_to_back_;

@@ -83,6 +83,12 @@ struct SculptSummary {
   std::int64_t final_mass_units = 0;
   std::size_t max_queue_depth = 0;
   bool settled = false;
+  // What the loop left for finish(): hand-offs still queued (a coalesced one still with
+  // the force stage is not counted), voxels waiting to relax (an upper bound:
+  // MassGrid::queued), and how long applying the queued ones and finishing the flows took.
+  std::size_t backlog_changes = 0;
+  std::size_t backlog_voxels = 0;
+  double drain_s = 0.0;
 };
 
 /// Lockstep rendering: `frame` is called every `every_ticks` ticks (and after the last)

@@ -50,6 +50,9 @@ struct TickRecord {
   std::uint8_t plastic_event = 0;  // a surface change was emitted this tick
   // Relaxation (zeros when off).
   std::int64_t queue_depth = 0;
+  // The newest plastic event (SurfaceChange::event) whose deletion the field this tick read
+  // includes: -1 before the first. Not written to the session (bench sculpt reads it).
+  std::int64_t published_event = -1;
   std::int64_t deleted_voxels = 0;  // this tick
   std::int64_t relaxed_voxels = 0;  // this tick
   std::int64_t total_mass_units = 0;

@@ -26,6 +26,7 @@ bool SurfaceChangeChannel::push(const engine::SurfaceChange& change) {
     pending_.position_mm = change.position_mm;
     pending_.direction = change.direction;
     pending_.radius_mm = std::max(pending_.radius_mm, change.radius_mm);
+    pending_.event = change.event;  // its deletion covers every event merged into it
   }
   return false;
 }

@@ -32,7 +32,10 @@ VoxelForceStage::VoxelForceStage(const engine::ToolForceModel& model, SurfaceCha
       state_(make_force_state(model, buffers)) {}
 
 void VoxelForceStage::acquire_published() noexcept {
-  if (buffers_ != nullptr) state_.read_from(buffers_->acquire_for_reading());
+  if (buffers_ == nullptr) return;
+  const int index = buffers_->acquire_for_reading();
+  state_.read_from(index);
+  published_event_ = buffers_->published_event(index);
 }
 
 Vec3d VoxelForceStage::step(const Vec3d& tool_center_mm, TickRecord& row) noexcept {
@@ -44,9 +47,12 @@ Vec3d VoxelForceStage::step(const Vec3d& tool_center_mm, TickRecord& row) noexce
   row.stress_measure_pa = state_.stress_measure_pa;
   row.zone = static_cast<std::uint8_t>(state_.zone);
   row.plastic_event = state_.surface_change_emitted ? 1 : 0;
+  row.published_event = published_event_;
   if (channel_ != nullptr) {
     if (state_.surface_change_emitted) {
-      channel_->push(state_.surface_change);
+      engine::SurfaceChange change = state_.surface_change;
+      change.event = events_emitted_++;
+      channel_->push(change);
     } else {
       channel_->flush();
     }
@@ -85,15 +91,21 @@ RelaxStageWork run_relax_stage(engine::MassGrid& mass, SurfaceChangeChannel& cha
   while (work.deletions < max_deletions && channel.pop(change)) {
     mass.apply_deletion(change);
     ++work.deletions;
+    work.newest_event = std::max(work.newest_event, change.event);
   }
   work.relax_steps = mass.relax(relax_budget);
   return work;
 }
 
-void drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel) {
+std::int64_t drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel) {
   engine::SurfaceChange change;
-  while (channel.pop(change)) mass.apply_deletion(change);
+  std::int64_t newest_event = -1;
+  while (channel.pop(change)) {
+    mass.apply_deletion(change);
+    newest_event = std::max(newest_event, change.event);
+  }
   mass.finish_flows();
+  return newest_event;
 }
 
 RelaxationStage::RelaxationStage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
@@ -139,8 +151,11 @@ void RelaxationStage::run_lockstep_tick(std::size_t tick, TickRecord& row,
   HAPVOX_CHECK(mirror_ != nullptr);
   // Deletions first (highest priority), then a fixed budget.
   const engine::RelaxWork before = mass_.work();
-  run_relax_stage(mass_, channel_, budget_.max_deletions, budget_.relax_voxels);
+  const RelaxStageWork work =
+      run_relax_stage(mass_, channel_, budget_.max_deletions, budget_.relax_voxels);
   if (publish_lockstep(render) > 0) force_->state().invalidate_cache();
+  applied_event_ = std::max(applied_event_, work.newest_event);
+  force_->note_published(applied_event_);
   row.deleted_voxels =
       static_cast<std::int64_t>(mass_.work().deleted_voxels - before.deleted_voxels);
   row.relaxed_voxels =
@@ -174,8 +189,10 @@ void RelaxationStage::run_realtime(const std::atomic<bool>& force_done, Clock::t
     timing.slice_max_steps = std::max(timing.slice_max_steps, work.relax_steps);
     const std::size_t did = work.deletions + work.relax_steps;
     mass_stale = mass_stale || did > 0;
-    if (mass_.has_changes()) {
-      buffers_->publish(mass_, force_done, feed != nullptr ? &published : nullptr);
+    applied_event_ = std::max(applied_event_, work.newest_event);
+    if (mass_.has_changes() || applied_event_ > published_event_) {
+      buffers_->publish(mass_, force_done, feed != nullptr ? &published : nullptr, applied_event_);
+      published_event_ = applied_event_;
     }
     if (feed != nullptr && (!published.empty() || !feed->voxels.drained_backlog())) {
       feed->voxels.offer(published, mass_);
@@ -219,14 +236,22 @@ void RelaxationStage::fill_realtime_row(TickRecord& row) noexcept {
 
 SculptSummary RelaxationStage::finish(const LockstepRender* render, RenderFeed* feed,
                                       const std::atomic<bool>* render_finished) {
-  drain_relaxation(mass_, channel_);
+  // What the loop left: changes not yet applied, voxels not yet relaxed.
+  SculptSummary summary;
+  summary.backlog_changes = channel_.depth();
+  summary.backlog_voxels = mass_.queued();
+  const auto drain_begin = Clock::now();
+  applied_event_ = std::max(applied_event_, drain_relaxation(mass_, channel_));
+  summary.drain_s = std::chrono::duration<double>(Clock::now() - drain_begin).count();
   if (mirror_ != nullptr) {
     publish_lockstep(render);
+    force_->note_published(applied_event_);
   } else {
     // No reader left: both buffers brought up to date; the render thread (still running)
     // drains the voxel queue, for which this thread is the producer now.
     std::vector<openvdb::Coord> published;
-    buffers_->publish_unsynchronized(mass_, feed != nullptr ? &published : nullptr);
+    buffers_->publish_unsynchronized(mass_, feed != nullptr ? &published : nullptr,
+                                     applied_event_);
     if (feed != nullptr) {
       feed->voxels.offer(published, mass_);
       while (!feed->voxels.drained_backlog() &&
@@ -236,7 +261,7 @@ SculptSummary RelaxationStage::finish(const LockstepRender* render, RenderFeed* 
       }
     }
   }
-  SculptSummary summary;
+  published_event_ = applied_event_;
   summary.queue_overflows = channel_.overflows();
   summary.deleted_voxels = mass_.work().deleted_voxels;
   summary.relaxed_voxels = mass_.work().relaxed_voxels;

@@ -44,18 +44,24 @@ class VoxelForceStage final : public ForceStage {
 
   engine::ToolForceState& state() { return state_; }
   const engine::ToolForceModel& model() const { return model_; }
+  /// Lockstep: the field this stage reads has taken in plastic events up to `event` (the
+  /// relaxation stage says so after publishing; realtime reads it with the buffer).
+  void note_published(std::int64_t event) noexcept { published_event_ = event; }
 
  private:
   const engine::ToolForceModel& model_;
   SurfaceChangeChannel* channel_;
   DoubleBufferedField* buffers_;
   engine::ToolForceState state_;
+  std::int64_t events_emitted_ = 0;   // plastic events so far (numbers the hand-offs)
+  std::int64_t published_event_ = -1;  // the newest the field read has taken in
 };
 
 /// What one relaxation stage did.
 struct RelaxStageWork {
-  std::size_t deletions = 0;    // surface changes applied
-  std::size_t relax_steps = 0;  // MassGrid::relax steps
+  std::size_t deletions = 0;       // surface changes applied
+  std::size_t relax_steps = 0;     // MassGrid::relax steps
+  std::int64_t newest_event = -1;  // the newest SurfaceChange::event applied; -1: none
 };
 
 /// The relaxation stage of one lockstep tick or one realtime slice, the same code in both,
@@ -66,8 +72,9 @@ RelaxStageWork run_relax_stage(engine::MassGrid& mass, SurfaceChangeChannel& cha
                                std::size_t max_deletions, std::size_t relax_budget);
 
 /// The end of a sculpting run (no reader left): applies every change still queued and
-/// finishes the flows, so the grid holds all the mass.
-void drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel);
+/// finishes the flows, so the grid holds all the mass. Returns the newest event applied
+/// (-1: none was queued).
+std::int64_t drain_relaxation(engine::MassGrid& mass, SurfaceChangeChannel& channel);
 
 /// A relaxation stage's fixed budget.
 struct RelaxBudget {
@@ -108,7 +115,9 @@ class RelaxationStage final : public BackgroundStage {
   DoubleBufferedField* buffers_ = nullptr;  // realtime
   RelaxBudget budget_;
   std::int64_t initial_mass_units_ = 0;
-  std::int64_t mass_units_ = 0;  // lockstep: the last exact measurement
+  std::int64_t mass_units_ = 0;       // lockstep: the last exact measurement
+  std::int64_t applied_event_ = -1;   // the newest plastic event the mass grid took in
+  std::int64_t published_event_ = -1;  // the newest the force stage's field has
   std::vector<openvdb::Coord> changed_;
   // Realtime: totals the background thread publishes for the force thread's rows, and
   // the force thread's own last readings of them.

@@ -26,6 +26,7 @@ namespace hapvox::cli {
 
 void add_bench_fem_command(CLI::App& bench);     // tools/cmd_bench_fem.cc
 void add_bench_bridge_command(CLI::App& bench);  // tools/cmd_bench_bridge.cc
+void add_bench_sculpt_command(CLI::App& bench);  // tools/cmd_bench_sculpt.cc
 
 namespace {
 
@@ -264,6 +265,7 @@ void add_bench_command(CLI::App& app) {
   });
   add_bench_fem_command(*bench);
   add_bench_bridge_command(*bench);
+  add_bench_sculpt_command(*bench);
   // Checked once bench's command line is parsed, before any benchmark runs (subcommands'
   // callbacks come first): plain bench's options given before a subcommand are refused.
   bench->parse_complete_callback([bench] {

@@ -122,6 +122,7 @@ const std::map<std::string, OptionRange>& option_ranges() {
       {"--plastic-size", {64, 2048}},
       {"--max-relax-s", {0, 86400, kOpen}},
       {"--round-trips", {100, 1e7}},
+      {"--stroke-mm", {0, 1e4, kOpen}},
       // trace make.
       {"--travel-mm", {0, 1e4, kOpen}},
       {"--speed-mm-s", {0, 1e6, kOpen}},

@@ -60,5 +60,38 @@ TEST(DoubleBufferedField, APublicationWaitsForTheReaderToLeaveTheBufferItWrites)
   EXPECT_EQ(buffers.buffer(1).sample_world(second), 1.0);
 }
 
+// A publication's event number travels with the buffer it made the front: the reader sees
+// the number of the buffer it acquired, never a newer one for an older buffer. With nothing
+// to write, both buffers match the grid and both take the number.
+TEST(DoubleBufferedField, TheEventNumberTravelsWithTheBufferItStamps) {
+  const engine::DensityField field = engine::generate_volume("block:dims=24,fill=1");
+  DoubleBufferedField buffers(field);
+  engine::MassGrid mass(field);
+  const std::atomic<bool> reader_done{false};
+  EXPECT_EQ(buffers.published_event(buffers.acquire_for_reading()), -1);
+
+  mass.apply_deletion(cut_at(Vec3d(8.0, 12.0, 12.0)));
+  buffers.publish(mass, reader_done, nullptr, 4);  // writes buffer 1
+  EXPECT_EQ(buffers.published_event(0), -1);       // the old front has not taken it in
+  const int front = buffers.acquire_for_reading();
+  EXPECT_EQ(front, 1);
+  EXPECT_EQ(buffers.published_event(front), 4);
+
+  mass.apply_deletion(cut_at(Vec3d(16.0, 12.0, 12.0)));
+  buffers.publish(mass, reader_done, nullptr, 9);  // writes buffer 0 (owed event 4's cut too)
+  EXPECT_EQ(buffers.published_event(1), 4);
+  EXPECT_EQ(buffers.published_event(buffers.acquire_for_reading()), 9);
+
+  // With no new change, buffer 1 still owes the second cut: written, stamped and flipped.
+  EXPECT_GT(buffers.publish(mass, reader_done, nullptr, 10), 0u);
+  EXPECT_EQ(buffers.front(), 1);
+  EXPECT_EQ(buffers.published_event(buffers.acquire_for_reading()), 10);
+  // Now both buffers match the grid: an event that changed nothing stamps both, no flip.
+  EXPECT_EQ(buffers.publish(mass, reader_done, nullptr, 11), 0u);
+  EXPECT_EQ(buffers.front(), 1);
+  EXPECT_EQ(buffers.published_event(0), 11);
+  EXPECT_EQ(buffers.published_event(1), 11);
+}
+
 }  // namespace
 }  // namespace hapvox::haptics

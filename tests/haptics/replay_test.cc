@@ -421,19 +421,22 @@ TEST(SurfaceChannel, OverflowCoalescesIntoOneSweepAndLosesNothing) {
   const unsigned extra = 10;
   for (unsigned i = 0; i < SurfaceChangeChannel::kCapacity + extra; ++i) {
     change.from_mm = change.position_mm = Vec3d(0, 0, -0.01 * i);
+    change.event = i;
     channel.push(change);
   }
   EXPECT_EQ(channel.overflows(), extra);
   EXPECT_TRUE(channel.has_pending());
   engine::SurfaceChange got;
   unsigned popped = 0;
-  while (channel.pop(got)) ++popped;
+  while (channel.pop(got)) EXPECT_EQ(got.event, static_cast<std::int64_t>(popped++));
   EXPECT_EQ(popped, SurfaceChangeChannel::kCapacity);
   ASSERT_TRUE(channel.flush());
   ASSERT_TRUE(channel.pop(got));
   // The coalesced change sweeps from the first overflowed position to the last one.
   EXPECT_EQ(got.from_mm.z(), -0.01 * SurfaceChangeChannel::kCapacity);
   EXPECT_EQ(got.position_mm.z(), -0.01 * (SurfaceChangeChannel::kCapacity + extra - 1));
+  // ... and carries the newest event's number: its deletion covers all of them.
+  EXPECT_EQ(got.event, std::int64_t{SurfaceChangeChannel::kCapacity + extra - 1});
   EXPECT_FALSE(channel.pop(got));
 }
 
