@@ -160,12 +160,18 @@ std::size_t MassGrid::relax(std::size_t max_voxels) {
   // A search cut short by the last call's budget goes on first: its mass is outside the
   // grid until it lands.
   std::size_t visits = flow_active_ ? advance_flow(max_visits) : 0;
-  std::size_t done = 0;
-  while (done < max_voxels && !queue_.empty()) {
+  const std::size_t max_stale = max_voxels > SIZE_MAX / kStalePopsPerVoxel
+                                    ? SIZE_MAX
+                                    : max_voxels * kStalePopsPerVoxel;
+  std::size_t done = 0, stale = 0;
+  while (done < max_voxels && stale < max_stale && !queue_.empty()) {
     const Entry top = queue_.top();
     queue_.pop();
     const std::int32_t current = accessor_.getValue(top.ijk);
-    if (current != top.units || current <= threshold_units_) continue;  // stale entry
+    if (current != top.units || current <= threshold_units_) {
+      ++stale;  // queued again since, or relaxed already
+      continue;
+    }
     relax_voxel(top.ijk, current);
     ++done;
   }
@@ -176,7 +182,8 @@ std::size_t MassGrid::relax(std::size_t max_voxels) {
     visits += advance_flow(max_visits - visits);
   }
   work_.relaxed_voxels += done;
-  return done + visits;
+  work_.stale_pops += stale;
+  return done + visits + stale;
 }
 
 void MassGrid::finish_flows() {

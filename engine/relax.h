@@ -35,8 +35,11 @@
 //      until the next deletion moves the tool.
 //
 //      Bounded work: relax(n) relaxes at most n active voxels and lets the flow's search
-//      expand at most n * RelaxOptions::flow_visits_per_voxel voxels (besides popping
-//      stale queue entries, each paid for by the push that made it). A search the budget
+//      expand at most n * RelaxOptions::flow_visits_per_voxel voxels, and pops at most
+//      n * kStalePopsPerVoxel stale queue entries (a voxel queued again since: each paid for
+//      by the push that made it, but a deletion pushing into the same voxels tick after
+//      tick leaves thousands, and one call popping them all ran for tens of ms on the
+//      realtime relaxation thread while a deletion waited). A search the budget
 //      cuts short resumes where it stopped at the start of the next call; the pool that
 //      voxels relaxed meanwhile make waits for the next search. The pool in flight is
 //      counted in total_mass_units(), so the total stays exact between calls, and the same
@@ -89,6 +92,7 @@ struct RelaxWork {
   std::uint64_t moved_units = 0;     // mass moved, fixed-point units
   std::uint64_t flow_visits = 0;     // voxels the flow-to-room search visited
   std::uint64_t flows = 0;           // flow-to-room searches run
+  std::uint64_t stale_pops = 0;      // queue entries popped that were stale (no work)
 };
 
 class MassGrid {
@@ -123,9 +127,13 @@ class MassGrid {
   /// skip_swept_voxels = false).
   std::size_t apply_deletion(const SurfaceChange& change);
 
+  /// At most this many stale queue entries popped per voxel of relax()'s budget.
+  static constexpr std::size_t kStalePopsPerVoxel = 16;
+
   /// Paper step 2: relaxes at most `max_voxels` active voxels; the flow's search expands at
-  /// most max_voxels * flow_visits_per_voxel voxels. Returns voxels relaxed plus voxels
-  /// the search expanded: 0 when there was nothing to do.
+  /// most max_voxels * flow_visits_per_voxel voxels; at most max_voxels * kStalePopsPerVoxel
+  /// stale entries are popped. Returns voxels relaxed plus voxels the search expanded plus
+  /// stale entries popped: 0 when there was nothing to do.
   std::size_t relax(std::size_t max_voxels);
 
   /// Runs the flow in flight, and the one waiting, to the end (no budget): the grid then

@@ -57,6 +57,10 @@ class DoubleBufferedField {
                               std::int64_t event = -1);
 
   int front() const { return front_.load(std::memory_order_acquire); }
+  /// Writer: the reader has left the back buffer, so a publication now would not wait.
+  bool back_is_free() const {
+    return reading_.load(std::memory_order_acquire) != 1 - front_.load(std::memory_order_relaxed);
+  }
 
  private:
   std::size_t write_into(int index, engine::MassGrid& mass);

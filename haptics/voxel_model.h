@@ -22,6 +22,7 @@
 #include "haptics/realtime.h"
 #include "haptics/replay.h"
 #include "haptics/surface_channel.h"
+#include "haptics/sweep_merger.h"
 
 namespace hapvox::haptics {
 
@@ -59,15 +60,15 @@ class VoxelForceStage final : public ForceStage {
 
 /// What one relaxation stage did.
 struct RelaxStageWork {
-  std::size_t deletions = 0;       // surface changes applied
+  std::size_t deletions = 0;       // surface changes applied (realtime: merged sweeps)
   std::size_t relax_steps = 0;     // MassGrid::relax steps
   std::int64_t newest_event = -1;  // the newest SurfaceChange::event applied; -1: none
 };
 
-/// The relaxation stage of one lockstep tick or one realtime slice, the same code in both,
-/// with bounded work so the relaxation stays responsive: at most `max_deletions` queued
-/// surface changes applied (highest priority; the rest wait in the channel for the next
-/// stage), then at most `relax_budget` relaxation steps.
+/// The relaxation stage of one lockstep tick, with bounded work: at most `max_deletions`
+/// queued surface changes applied (highest priority; the rest wait in the channel for the
+/// next stage), then at most `relax_budget` relaxation steps. (A realtime slice does the
+/// same work in its own order: RelaxationStage::run_realtime.)
 RelaxStageWork run_relax_stage(engine::MassGrid& mass, SurfaceChangeChannel& channel,
                                std::size_t max_deletions, std::size_t relax_budget);
 
@@ -107,6 +108,14 @@ class RelaxationStage final : public BackgroundStage {
  private:
   // Lockstep: the mass grid's changed voxels into the mirror and to the renderer.
   std::size_t publish_lockstep(const LockstepRender* render);
+  // Realtime: at most max_deletions sweeps of the queued changes (SweepMerger), applied.
+  RelaxStageWork apply_queued_sweeps();
+  // Realtime: relaxation in chunks, up to the budget, until a change arrives. Steps taken
+  // (MassGrid::relax's count).
+  std::size_t relax_until_arrival();
+  // Realtime: the grid's changes into the back buffer, made the front.
+  void publish_realtime(const std::atomic<bool>& force_done, RenderFeed* feed,
+                        std::vector<openvdb::Coord>& published);
 
   engine::MassGrid& mass_;
   SurfaceChangeChannel& channel_;
@@ -119,6 +128,7 @@ class RelaxationStage final : public BackgroundStage {
   std::int64_t applied_event_ = -1;   // the newest plastic event the mass grid took in
   std::int64_t published_event_ = -1;  // the newest the force stage's field has
   std::vector<openvdb::Coord> changed_;
+  SweepMerger merger_;  // realtime
   // Realtime: totals the background thread publishes for the force thread's rows, and
   // the force thread's own last readings of them.
   std::atomic<std::uint64_t> deleted_{0};

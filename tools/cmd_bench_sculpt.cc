@@ -209,7 +209,15 @@ void run_bench_sculpt(const SculptBenchFlags& f) {
               "q full", "lag p50", "lag p99", "lag max", "lag tk", "unseen", "backlog", "relax",
               "drain ms", "peak N", "mass");
   for (int d : diameters) {
-    print_row(d, "realtime", run_stroke(field, d, true, f), true);
+    const StrokeResult realtime = run_stroke(field, d, true, f);
+    print_row(d, "realtime", realtime, true);
+    const haptics::TimingSummary& t = realtime.timing;
+    std::printf(
+        "%8s relaxation thread busy %.0f%%, slices p50 %.2f p99 %.2f max %.2f ms, at most %zu "
+        "sweeps and %zu steps in one\n",
+        "", 100.0 * t.relax_busy_fraction, 1e-3 * t.relax_slice.p50_us,
+        1e-3 * t.relax_slice.p99_us, 1e-3 * t.relax_slice.max_us, t.relax_slice_max_deletions,
+        t.relax_slice_max_steps);
     print_row(d, "lockstep", run_stroke(field, d, false, f), false);
   }
 }

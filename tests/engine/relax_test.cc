@@ -167,7 +167,9 @@ TEST(Relax, RelaxesTheHighestDensityFirst) {
     for (const auto& [ijk, units] : before)
       densest = std::max(densest, units), least = std::min(least, units);
     ASSERT_GT(densest, least);  // a real choice
-    mass.relax(1);
+    // A call may pop only stale entries (at most kStalePopsPerVoxel): until one relaxes.
+    const std::uint64_t was = mass.work().relaxed_voxels;
+    for (int call = 0; call < 1000 && mass.work().relaxed_voxels == was; ++call) mass.relax(1);
     auto acc = mass.grid().getConstAccessor();
     int relaxed = 0;
     for (const auto& [ijk, units] : before) {
@@ -277,9 +279,11 @@ TEST(Relax, WorkPerCallStaysWithinTheBudgetAndTheVolumeStillSettles) {
       const RelaxWork& now = mass.work();
       const std::size_t relaxed = now.relaxed_voxels - was.relaxed_voxels;
       const std::size_t visits = now.flow_visits - was.flow_visits;
+      const std::size_t stale = now.stale_pops - was.stale_pops;
       EXPECT_LE(relaxed, kVoxels) << "call " << *calls;
       EXPECT_LE(visits, max_visits) << "call " << *calls;
-      EXPECT_EQ(steps, relaxed + visits);
+      EXPECT_LE(stale, kVoxels * MassGrid::kStalePopsPerVoxel) << "call " << *calls;
+      EXPECT_EQ(steps, relaxed + visits + stale);
       *max_visits_seen = std::max(*max_visits_seen, visits);
       if (++*calls % 25 == 0) {
         EXPECT_EQ(mass.summed_mass_units(), before) << "call " << *calls;

@@ -31,8 +31,10 @@ TEST(VoxelModel, RelaxStageAppliesAtMostItsDeletionsAndRelaxesWithinItsBudget) {
     EXPECT_LE(mass.work().relaxed_voxels - was.relaxed_voxels, 50u);
     EXPECT_LE(mass.work().flow_visits - was.flow_visits,
               50u * engine::RelaxOptions{}.flow_visits_per_voxel);
+    EXPECT_LE(mass.work().stale_pops - was.stale_pops, 50u * engine::MassGrid::kStalePopsPerVoxel);
     EXPECT_EQ(work.relax_steps, (mass.work().relaxed_voxels - was.relaxed_voxels) +
-                                    (mass.work().flow_visits - was.flow_visits));
+                                    (mass.work().flow_visits - was.flow_visits) +
+                                    (mass.work().stale_pops - was.stale_pops));
     EXPECT_EQ(mass.total_mass_units(), before);
   }
   EXPECT_EQ(deletions, (std::vector<std::size_t>{8, 8, 4, 0}));

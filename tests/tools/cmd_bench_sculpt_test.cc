@@ -45,7 +45,9 @@ TEST(BenchSculptCli, RealtimeAndLockstepStrokesReadEveryEventsDeletion) {
     // 0.75 s at 1 kHz: 0.2 s down, 0.5 s along, 0.1 s held.
     EXPECT_EQ(row.at("ticks"), "751") << mode;
     EXPECT_GT(std::stoi(row.at("events")), 300) << mode;
-    EXPECT_EQ(row.at("unseen"), "0") << mode;  // the hold lets the last ones through
+    // The hold lets the last ones through; in realtime the held tool sometimes goes on
+    // yielding, and its last tick's event no tick can read.
+    EXPECT_LE(std::stoi(row.at("unseen")), mode == "realtime" ? 1 : 0) << mode;
     EXPECT_EQ(row.at("q full"), "0") << mode;
     EXPECT_EQ(row.at("mass"), "exact") << mode;
     EXPECT_GE(std::stod(row.at("lag tk")), 1.0) << mode;
