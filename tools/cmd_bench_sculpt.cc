@@ -111,7 +111,6 @@ class RecordingDevice final : public haptics::Device {
 
 struct StrokeResult {
   std::size_t ticks = 0;
-  double wall_s = 0.0;
   haptics::TimingSummary timing;  // realtime only
   haptics::SculptSummary sculpted;
   DeletionLags lags;
@@ -131,7 +130,6 @@ StrokeResult run_stroke(const engine::DensityField& field, double diameter_mm, b
   engine::MassGrid mass(field);
   haptics::SurfaceChangeChannel channel;
   StrokeResult result;
-  const auto begin = Clock::now();
   if (realtime) {
     haptics::DoubleBufferedField buffers(field);
     const engine::ToolForceModel model(buffers.buffer(0), options);
@@ -152,7 +150,6 @@ StrokeResult run_stroke(const engine::DensityField& field, double diameter_mm, b
     haptics::replay_lockstep(model, device, haptics::DeviceLimits{}, nullptr, {}, &sculpt,
                              &result.sculpted);
   }
-  result.wall_s = std::chrono::duration<double>(Clock::now() - begin).count();
   result.ticks = device.ticks().size();
   result.lags = haptics::deletion_lags(device.ticks());
   std::vector<double> depth;
