@@ -160,9 +160,8 @@ std::size_t MassGrid::relax(std::size_t max_voxels) {
   // A search cut short by the last call's budget goes on first: its mass is outside the
   // grid until it lands.
   std::size_t visits = flow_active_ ? advance_flow(max_visits) : 0;
-  const std::size_t max_stale = max_voxels > SIZE_MAX / kStalePopsPerVoxel
-                                    ? SIZE_MAX
-                                    : max_voxels * kStalePopsPerVoxel;
+  const std::size_t max_stale =
+      max_voxels > SIZE_MAX / kStalePopsPerVoxel ? SIZE_MAX : max_voxels * kStalePopsPerVoxel;
   std::size_t done = 0, stale = 0;
   while (done < max_voxels && stale < max_stale && !queue_.empty()) {
     const Entry top = queue_.top();

@@ -13,9 +13,9 @@ namespace hapvox::haptics {
 
 /// One tick as the bench's device saw it (times from the device's creation).
 struct TickTimes {
-  std::int64_t read_ns = 0;          // the tick read its position: its field was taken up
-  std::int64_t sent_ns = 0;          // its force was sent: any hand-off was made before
-  bool plastic_event = false;        // it emitted a surface change (event numbers count these)
+  std::int64_t read_ns = 0;           // the tick read its position: its field was taken up
+  std::int64_t sent_ns = 0;           // its force was sent: any hand-off was made before
+  bool plastic_event = false;         // it emitted a surface change (event numbers count these)
   std::int64_t published_event = -1;  // TickRecord::published_event
   std::int64_t queue_depth = 0;
   double force_n = 0.0;

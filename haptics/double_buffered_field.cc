@@ -35,8 +35,7 @@ std::size_t DoubleBufferedField::write_into(int index, engine::MassGrid& mass) {
 
 std::size_t DoubleBufferedField::publish(engine::MassGrid& mass,
                                          const std::atomic<bool>& reader_done,
-                                         std::vector<openvdb::Coord>* changed,
-                                         std::int64_t event) {
+                                         std::vector<openvdb::Coord>* changed, std::int64_t event) {
   mass.take_changes(fresh_);
   if (changed != nullptr) changed->insert(changed->end(), fresh_.begin(), fresh_.end());
   if (fresh_.empty() && owed_to_back_.empty()) {

@@ -307,8 +307,7 @@ SculptSummary RelaxationStage::finish(const LockstepRender* render, RenderFeed* 
     // No reader left: both buffers brought up to date; the render thread (still running)
     // drains the voxel queue, for which this thread is the producer now.
     std::vector<openvdb::Coord> published;
-    buffers_->publish_unsynchronized(mass_, feed != nullptr ? &published : nullptr,
-                                     applied_event_);
+    buffers_->publish_unsynchronized(mass_, feed != nullptr ? &published : nullptr, applied_event_);
     if (feed != nullptr) {
       feed->voxels.offer(published, mass_);
       while (!feed->voxels.drained_backlog() &&

@@ -54,7 +54,7 @@ class VoxelForceStage final : public ForceStage {
   SurfaceChangeChannel* channel_;
   DoubleBufferedField* buffers_;
   engine::ToolForceState state_;
-  std::int64_t events_emitted_ = 0;   // plastic events so far (numbers the hand-offs)
+  std::int64_t events_emitted_ = 0;    // plastic events so far (numbers the hand-offs)
   std::int64_t published_event_ = -1;  // the newest the field read has taken in
 };
 
@@ -124,8 +124,8 @@ class RelaxationStage final : public BackgroundStage {
   DoubleBufferedField* buffers_ = nullptr;  // realtime
   RelaxBudget budget_;
   std::int64_t initial_mass_units_ = 0;
-  std::int64_t mass_units_ = 0;       // lockstep: the last exact measurement
-  std::int64_t applied_event_ = -1;   // the newest plastic event the mass grid took in
+  std::int64_t mass_units_ = 0;        // lockstep: the last exact measurement
+  std::int64_t applied_event_ = -1;    // the newest plastic event the mass grid took in
   std::int64_t published_event_ = -1;  // the newest the force stage's field has
   std::vector<openvdb::Coord> changed_;
   SweepMerger merger_;  // realtime

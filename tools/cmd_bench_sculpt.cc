@@ -87,8 +87,8 @@ class RecordingDevice final : public haptics::Device {
     ticks_[tick].read_ns = since_start_ns();
     inner_.read(tick, reading);
   }
-  void send(std::size_t tick, const haptics::Vec3d& force_device_n,
-            const haptics::TickRecord& row, bool fault) override {
+  void send(std::size_t tick, const haptics::Vec3d& force_device_n, const haptics::TickRecord& row,
+            bool fault) override {
     TickTimes& t = ticks_[tick];
     t.sent_ns = since_start_ns();
     t.plastic_event = row.plastic_event != 0;
@@ -169,13 +169,14 @@ void print_row(int d, const char* mode, const StrokeResult& r, bool realtime) {
     std::snprintf(late, sizeof late, "%.1f", r.timing.lateness.p99_us);
     std::snprintf(missed, sizeof missed, "%zu", r.timing.missed_deadlines);
   }
-  std::printf("%8d %-9s %6zu %10s %6s %7zu %6lld %6.0f %9llu %8.2f %8.2f %8.2f %6.0f %7zu %7zu "
-              "%8zu %8.1f %7.3f %s\n",
-              d, mode, r.ticks, late, missed, l.events, static_cast<long long>(r.queue_max),
-              r.queue_p99, static_cast<unsigned long long>(r.sculpted.queue_overflows),
-              l.p50_ms, l.p99_ms, l.max_ms, l.p99_ticks, l.unseen, r.sculpted.backlog_changes,
-              r.sculpted.backlog_voxels, 1e3 * r.sculpted.drain_s, r.peak_force_n,
-              r.sculpted.initial_mass_units == r.sculpted.final_mass_units ? "exact" : "CHANGED");
+  std::printf(
+      "%8d %-9s %6zu %10s %6s %7zu %6lld %6.0f %9llu %8.2f %8.2f %8.2f %6.0f %7zu %7zu "
+      "%8zu %8.1f %7.3f %s\n",
+      d, mode, r.ticks, late, missed, l.events, static_cast<long long>(r.queue_max), r.queue_p99,
+      static_cast<unsigned long long>(r.sculpted.queue_overflows), l.p50_ms, l.p99_ms, l.max_ms,
+      l.p99_ticks, l.unseen, r.sculpted.backlog_changes, r.sculpted.backlog_voxels,
+      1e3 * r.sculpted.drain_s, r.peak_force_n,
+      r.sculpted.initial_mass_units == r.sculpted.final_mass_units ? "exact" : "CHANGED");
   std::fflush(stdout);
 }
 
@@ -212,9 +213,8 @@ void run_bench_sculpt(const SculptBenchFlags& f) {
     std::printf(
         "%8s relaxation thread busy %.0f%%, slices p50 %.2f p99 %.2f max %.2f ms, at most %zu "
         "sweeps and %zu steps in one\n",
-        "", 100.0 * t.relax_busy_fraction, 1e-3 * t.relax_slice.p50_us,
-        1e-3 * t.relax_slice.p99_us, 1e-3 * t.relax_slice.max_us, t.relax_slice_max_deletions,
-        t.relax_slice_max_steps);
+        "", 100.0 * t.relax_busy_fraction, 1e-3 * t.relax_slice.p50_us, 1e-3 * t.relax_slice.p99_us,
+        1e-3 * t.relax_slice.max_us, t.relax_slice_max_deletions, t.relax_slice_max_steps);
     print_row(d, "lockstep", run_stroke(field, d, false, f), false);
   }
 }
@@ -228,8 +228,7 @@ void add_bench_sculpt_command(CLI::App& bench) {
       "A realtime plastic stroke through a clay block (force and relaxation threads): "
       "lateness, queue depth, deletion lag and backlog, beside the same stroke in lockstep");
   cmd->add_option("--size", flags->size, "Volume edge length, voxels")->capture_default_str();
-  cmd->add_option("--diameters", flags->diameters, "Tool diameters, voxels")
-      ->capture_default_str();
+  cmd->add_option("--diameters", flags->diameters, "Tool diameters, voxels")->capture_default_str();
   cmd->add_option("--speed-mm-s", flags->speed_mm_s, "The tool's speed")->capture_default_str();
   cmd->add_option("--stroke-mm", flags->stroke_mm, "Length of the stroke along the face")
       ->capture_default_str();

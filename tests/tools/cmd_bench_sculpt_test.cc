@@ -18,10 +18,10 @@ using testing::run_hapvox;
 
 // The table's rows by mode ("realtime", "lockstep"): column name -> field.
 std::map<std::string, std::map<std::string, std::string>> read_rows(const std::string& out) {
-  const std::vector<std::string> names = {
-      "diameter", "mode",    "ticks",   "p99 lat us", "missed",  "events", "q max",
-      "q p99",    "q full",  "lag p50", "lag p99",    "lag max", "lag tk", "unseen",
-      "backlog",  "relax",   "drain ms", "peak N",    "mass"};
+  const std::vector<std::string> names = {"diameter", "mode",     "ticks",  "p99 lat us", "missed",
+                                          "events",   "q max",    "q p99",  "q full",     "lag p50",
+                                          "lag p99",  "lag max",  "lag tk", "unseen",     "backlog",
+                                          "relax",    "drain ms", "peak N", "mass"};
   std::map<std::string, std::map<std::string, std::string>> rows;
   std::istringstream lines(out);
   for (std::string line; std::getline(lines, line);) {
