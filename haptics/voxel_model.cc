@@ -186,7 +186,7 @@ std::size_t RelaxationStage::relax_until_arrival() {
   const std::size_t budget = budget_.relax_voxels;
   std::size_t steps = 0;
   for (std::size_t asked = 0; asked < budget; asked += kRelaxChunk) {
-    if (channel_.depth() > 0 || merger_.has_carried()) break;
+    if (change_waiting()) break;
     const std::size_t did = mass_.relax(std::min(kRelaxChunk, budget - asked));
     if (did == 0) break;
     steps += did;
@@ -235,9 +235,8 @@ void RelaxationStage::run_realtime(const std::atomic<bool>& force_done, Clock::t
     // While the tool sculpts, relaxation's changes go out with the next deletion's
     // publication: one of their own would take the flip the deletion then waits a tick for.
     const bool sculpting = Clock::now() - last_deletion < kRelaxOnlyAfter;
-    const bool change_waiting = channel_.depth() > 0 || merger_.has_carried();
     if (mass_.has_changes() &&
-        (finishing || (!sculpting && !change_waiting && buffers_->back_is_free()))) {
+        (finishing || (!sculpting && !change_waiting() && buffers_->back_is_free()))) {
       publish_realtime(force_done, feed, published);
     }
     timing.slice_max_deletions = std::max(timing.slice_max_deletions, deleted.deletions);

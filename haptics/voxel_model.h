@@ -110,6 +110,8 @@ class RelaxationStage final : public BackgroundStage {
   std::size_t publish_lockstep(const LockstepRender* render);
   // Realtime: at most max_deletions sweeps of the queued changes (SweepMerger), applied.
   RelaxStageWork apply_queued_sweeps();
+  // Realtime: a surface change waits, queued or carried by the merger.
+  bool change_waiting() const { return channel_.depth() > 0 || merger_.has_carried(); }
   // Realtime: relaxation in chunks, up to the budget, until a change arrives. Steps taken
   // (MassGrid::relax's count).
   std::size_t relax_until_arrival();
