@@ -142,14 +142,22 @@ ToolForceModel::ToolForceModel(const DensityField& field, const ToolForceOptions
 
 ToolForceState ToolForceModel::make_state() const {
   ToolForceState state(*field_);
+  reserve_caches(state);
   if (tissue_ != nullptr) state.tissue_accessor.emplace(tissue_->slots().getConstAccessor());
   return state;
 }
 
 ToolForceState ToolForceModel::make_state(const DensityField& second) const {
   ToolForceState state(*field_, second);
+  reserve_caches(state);
   if (tissue_ != nullptr) state.tissue_accessor.emplace(tissue_->slots().getConstAccessor());
   return state;
+}
+
+void ToolForceModel::reserve_caches(ToolForceState& state) const {
+  state.window.reserve(tool_radius_index_);
+  state.stencils.reserve(sample_offsets_index_);
+  state.sample_densities.assign(sample_offsets_index_.size(), 0.0f);
 }
 
 bool ToolForceModel::may_touch(const Vec3d& c) const {
@@ -166,57 +174,33 @@ bool ToolForceModel::may_touch(const Vec3d& c) const {
 }
 
 float ToolForceModel::sample_density(const Eigen::Vector3f& q, ToolForceState& s) const {
-  const float fx0 = std::floor(q.x());
-  const float fy0 = std::floor(q.y());
-  const float fz0 = std::floor(q.z());
-  const float fx = q.x() - fx0;
-  const float fy = q.y() - fy0;
-  const float fz = q.z() - fz0;
-  const int ix = static_cast<int>(fx0);
-  const int iy = static_cast<int>(fy0);
-  const int iz = static_cast<int>(fz0);
-  const int lx = ix & kLeafMask;
-  const int ly = iy & kLeafMask;
-  const int lz = iz & kLeafMask;
-
-  float v000, v001, v010, v011, v100, v101, v110, v111;
+  if (s.window.contains(q)) return s.window.sample(q);
+  // Outside the window (the pole's line reaches past the tool, or no window): the tree,
+  // the last leaf found kept.
+  const StencilPoint p = locate_stencil(q);
+  const int lx = p.ix & kLeafMask;
+  const int ly = p.iy & kLeafMask;
+  const int lz = p.iz & kLeafMask;
+  float v[8];
   if (lx < kLeafMask && ly < kLeafMask && lz < kLeafMask) {
     // The 2x2x2 stencil lies in one leaf (7 times in 10): read its buffer directly.
-    const openvdb::Coord origin(ix & ~kLeafMask, iy & ~kLeafMask, iz & ~kLeafMask);
+    const openvdb::Coord origin(p.ix & ~kLeafMask, p.iy & ~kLeafMask, p.iz & ~kLeafMask);
     if (origin != s.cached_leaf_origin) {
       s.cached_leaf_origin = origin;
       s.cached_leaf = s.accessor().probeConstLeaf(origin);
       if (s.cached_leaf == nullptr) s.cached_tile_value = s.accessor().getValue(origin);
     }
     if (s.cached_leaf == nullptr) return s.cached_tile_value;  // a tile: constant inside
-    const float* v = s.cached_leaf->buffer().data() + ((lx << 6) | (ly << 3) | lz);
-    v000 = v[0];
-    v001 = v[1];
-    v010 = v[8];
-    v011 = v[9];
-    v100 = v[64];
-    v101 = v[65];
-    v110 = v[72];
-    v111 = v[73];
+    const float* leaf = s.cached_leaf->buffer().data() + ((lx << 6) | (ly << 3) | lz);
+    const int offsets[8] = {0, 1, 8, 9, 64, 65, 72, 73};
+    for (int k = 0; k < 8; ++k) v[k] = leaf[offsets[k]];
   } else {
-    const openvdb::Coord c(ix, iy, iz);
     auto& a = s.accessor();
-    v000 = a.getValue(c);
-    v001 = a.getValue(c.offsetBy(0, 0, 1));
-    v010 = a.getValue(c.offsetBy(0, 1, 0));
-    v011 = a.getValue(c.offsetBy(0, 1, 1));
-    v100 = a.getValue(c.offsetBy(1, 0, 0));
-    v101 = a.getValue(c.offsetBy(1, 0, 1));
-    v110 = a.getValue(c.offsetBy(1, 1, 0));
-    v111 = a.getValue(c.offsetBy(1, 1, 1));
+    for (int k = 0; k < 8; ++k) {
+      v[k] = a.getValue(openvdb::Coord(p.ix + (k >> 2), p.iy + ((k >> 1) & 1), p.iz + (k & 1)));
+    }
   }
-  const float a00 = v000 + fz * (v001 - v000);
-  const float a01 = v010 + fz * (v011 - v010);
-  const float a10 = v100 + fz * (v101 - v100);
-  const float a11 = v110 + fz * (v111 - v110);
-  const float b0 = a00 + fy * (a01 - a00);
-  const float b1 = a10 + fy * (a11 - a10);
-  return b0 + fx * (b1 - b0);
+  return trilinear(v, p.fx, p.fy, p.fz);
 }
 
 ContactIntegral ToolForceModel::integrate_contact(const Vec3d& center_mm, ToolForceState& s) const {
@@ -224,23 +208,35 @@ ContactIntegral ToolForceModel::integrate_contact(const Vec3d& center_mm, ToolFo
   const Vec3d center_index = field_->world_to_index(center_mm);
   if (!may_touch(center_index)) return result;
   const Eigen::Vector3f c = center_index.cast<float>();
-  // Accumulate in float per run, double overall: bounded rounding, few conversions.
-  Eigen::Vector3d sum_normal = Vec3d::Zero();
-  double sum_density = 0.0;
+  const bool windowed = s.use_read_caches && s.window.cover(center_index, s.accessor());
+  const std::size_t n = sample_offsets_index_.size();
+  const float* densities = nullptr;
+  if (windowed) {
+    densities = s.stencils.sample(c, s.window);
+  } else {
+    for (std::size_t k = 0; k < n; ++k)
+      s.sample_densities[k] = sample_density(c + sample_offsets_index_[k], s);
+    densities = s.sample_densities.data();
+  }
+  // Each term in float, the sums in double: bounded rounding, few conversions. Scalar
+  // sums, so that they stay in registers.
+  double sum_x = 0.0, sum_y = 0.0, sum_z = 0.0, sum_density = 0.0;
   int in_contact = 0;
   float max_density = 0.0f;
-  const std::size_t n = sample_offsets_index_.size();
   for (std::size_t k = 0; k < n; ++k) {
-    const float rho = sample_density(c + sample_offsets_index_[k], s);
+    const float rho = densities[k];
     if (rho > 0.0f) {
-      sum_normal += (rho * sample_normals_[k]).cast<double>();
+      const Eigen::Vector3f& normal = sample_normals_[k];
+      sum_x += double(rho * normal.x());
+      sum_y += double(rho * normal.y());
+      sum_z += double(rho * normal.z());
       sum_density += rho;
       max_density = std::max(max_density, rho);
       ++in_contact;
-      if (tissue_ != nullptr)
-        add_tissue_sample(c + sample_offsets_index_[k], sample_normals_[k], s, result);
+      if (tissue_ != nullptr) add_tissue_sample(c + sample_offsets_index_[k], normal, s, result);
     }
   }
+  const Vec3d sum_normal(sum_x, sum_y, sum_z);
   result.area_vector_mm2 = sum_normal * sample_area_mm2_;
   result.contact_area_mm2 = sum_density * sample_area_mm2_;
   if (tissue_ != nullptr) {
@@ -293,8 +289,10 @@ bool ToolForceModel::touches(const Vec3d& center_mm, ToolForceState& s) const {
   const Vec3d center_index = field_->world_to_index(center_mm);
   if (!may_touch(center_index)) return false;
   const Eigen::Vector3f c = center_index.cast<float>();
+  const bool windowed = s.use_read_caches && s.window.cover(center_index, s.accessor());
   for (const auto& offset : sample_offsets_index_) {
-    if (sample_density(c + offset, s) >= surface_density_) return true;
+    const Eigen::Vector3f q = c + offset;
+    if ((windowed ? s.window.sample(q) : sample_density(q, s)) >= surface_density_) return true;
   }
   return false;
 }

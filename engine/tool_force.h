@@ -45,7 +45,9 @@
 #include <vector>
 
 #include "engine/density_field.h"
+#include "engine/leaf_window.h"
 #include "engine/material.h"
+#include "engine/stencil_cache.h"
 #include "engine/surface_change.h"
 #include "engine/tissue_map.h"
 
@@ -191,6 +193,15 @@ struct ToolForceState {
   const openvdb::FloatTree::LeafNodeType* cached_leaf = nullptr;
   openvdb::Coord cached_leaf_origin{openvdb::Coord::max()};
   float cached_tile_value = 0.0f;
+  // The leaves around the tool in a table (leaf_window.h), sized by make_state.
+  // use_read_caches false reads every point through the accessor instead, as before
+  // issue 29 (the tests compare the two: the forces are bit-identical).
+  bool use_read_caches = true;
+  LeafWindow window;
+  // Each quadrature point's stencil, kept between ticks (stencil_cache.h), and the
+  // points' densities of the last integral; both sized by make_state.
+  StencilCache stencils;
+  std::vector<float> sample_densities;
   // The tissue slots, when the model has a TissueMap (made by ToolForceModel::make_state).
   std::optional<openvdb::Int32Grid::ConstAccessor> tissue_accessor;
 
@@ -199,6 +210,8 @@ struct ToolForceState {
     accessors[active_buffer].clear();
     cached_leaf = nullptr;
     cached_leaf_origin = openvdb::Coord::max();
+    window.invalidate();
+    stencils.invalidate();
   }
   /// Reads buffer 0 or 1 from now on (double-buffered fields in realtime runs). Does not
   /// allocate.
@@ -304,6 +317,8 @@ class ToolForceModel {
 
  private:
   float sample_density(const Eigen::Vector3f& q_index, ToolForceState& state) const;
+  /// Sizes the state's read caches for this model's tool and quadrature.
+  void reserve_caches(ToolForceState& state) const;
   /// Adds quadrature point q (index space, outward normal n, density > 0) to the tissue
   /// sums of `result` (before the area factor).
   void add_tissue_sample(const Eigen::Vector3f& q_index, const Eigen::Vector3f& normal,

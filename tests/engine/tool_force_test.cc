@@ -9,6 +9,8 @@
 
 #include "engine/block_field.h"
 #include "engine/errors.h"
+#include "engine/relax.h"
+#include "engine/volume_io.h"
 
 namespace hapvox::engine {
 namespace {
@@ -324,6 +326,62 @@ TEST(ToolForce, DeterministicAcrossRuns) {
     return out;
   };
   EXPECT_EQ(run(), run());
+}
+
+// Issue 29, point 2: the force path reads through a leaf window and stencils kept between
+// ticks; with them off (use_read_caches = false) it reads every point through the
+// accessor, as before. The forces must be the same bits: pressing and sliding on a block
+// (unit voxels, and anisotropic ones in a turned, offset frame), elastic and plastic, the
+// plastic stroke's deletions changing the field under the tool as it goes.
+TEST(ToolForce, ReadCachesGiveBitIdenticalForcesOnPressesSlidesAndAPlasticStroke) {
+  const DensityField block = generate_volume("block:dims=48");  // face at index z = 23.5
+  const Mat3d turned = Eigen::AngleAxisd(0.3, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
+  for (const bool plastic : {false, true}) {
+    for (const bool skewed : {false, true}) {
+      DensityField field(block.grid().deepCopy(),
+                         skewed ? Vec3d(0.6, 0.8, 0.5) : Vec3d::Constant(1.0),
+                         skewed ? Vec3d(3, -2, 1) : Vec3d::Zero(), block.dims(),
+                         skewed ? turned : Mat3d::Identity());
+      ToolForceOptions options;  // the Hertz law
+      options.tool.diameter_mm = 8.0;
+      options.plastic.enabled = plastic;
+      const ToolForceModel model(field, options);
+      ToolForceState cached = model.make_state();
+      ToolForceState direct = model.make_state();
+      direct.use_read_caches = false;
+      MassGrid mass(field);
+      const double radius_z = 4.0 / field.voxel_size_mm().z();  // in index units
+      int in_contact = 0, events = 0;
+      for (int tick = 0; tick < 1500; ++tick) {
+        // Down from 1 voxel above the face to a third of the radius deep, then 30 voxels
+        // along x (out of the leaf window the press began in), weaving in y.
+        const double down = std::min(tick, 500) * (1.0 + radius_z / 3.0) / 500.0;
+        const double along = std::max(tick - 500, 0) * 0.03;
+        const Vec3d at_index(10.0 + along, 24.0 + 0.8 * std::sin(along), 24.5 + radius_z - down);
+        const Vec3d at = field.index_to_world(at_index);
+        model.step(at, cached);
+        model.step(at, direct);
+        ASSERT_TRUE(cached.force_n == direct.force_n)
+            << "tick " << tick << ": " << cached.force_n.transpose() << " vs "
+            << direct.force_n.transpose();
+        ASSERT_EQ(cached.surface_change_emitted, direct.surface_change_emitted) << tick;
+        in_contact += cached.in_contact;
+        if (cached.surface_change_emitted) {
+          ++events;
+          mass.apply_deletion(cached.surface_change);
+          mass.relax(200);
+          if (mass.publish_changes(field) > 0) {
+            cached.invalidate_cache();
+            direct.invalidate_cache();
+          }
+        }
+      }
+      EXPECT_GT(in_contact, 1000);
+      EXPECT_EQ(events > 100, plastic) << events << " plastic events";
+      EXPECT_GT(cached.window.rebuilds(), 1u);  // the window followed the tool
+      EXPECT_EQ(direct.window.rebuilds(), 0u);  // and the reference never used one
+    }
+  }
 }
 
 TEST(ToolForce, NaiveBaselineAgreesWithSurfaceQuadrature) {
