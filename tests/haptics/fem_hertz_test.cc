@@ -110,36 +110,45 @@ double hertz_n(double radius_mm, double depth_mm) {
   return 4.0 / 3.0 * e_star * std::sqrt(radius_mm) * std::pow(depth_mm, 1.5);
 }
 
-TEST(FemHertz, APressOnAVoxelBlockStartsAtItsNominalSurfaceAndFollowsHertz) {
-  for (const PressCase& c : {PressCase{4.0, 5}, PressCase{10.0, 4}}) {
-    const Press press = press_block(c);
-    // One surface for both models: the FEM feels the block where the voxel model's density
-    // crosses 1/2 (its mesh over the voxel centres started half a voxel, 1 mm, deeper).
-    EXPECT_GE(press.onset_depth_mm, 0.0) << "R " << c.radius_mm;
-    EXPECT_LE(press.onset_depth_mm, 0.01) << "R " << c.radius_mm;
-    double lo = 1e9, hi = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
-    int n = 0;
-    const double s2_over_r = press.edge_mm * press.edge_mm / c.radius_mm;
-    for (std::size_t k = 0; k < press.depth_mm.size(); ++k) {
-      const double d = press.depth_mm[k];
-      if (d < 4 * s2_over_r) continue;
-      const double ratio = press.force_n[k] / hertz_n(c.radius_mm, d);
-      lo = std::min(lo, ratio), hi = std::max(hi, ratio);
-      const double x = std::log(d), y = std::log(press.force_n[k]);
-      sx += x, sy += y, sxx += x * x, sxy += x * y, ++n;
-    }
-    const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-    std::printf(
-        "R %.0f mm, edges %.2f mm: onset %.4f mm deep, F/F_Hertz %.3f..%.3f over "
-        "d %.2f..%.2f mm (%d ticks), slope %.3f\n",
-        c.radius_mm, press.edge_mm, press.onset_depth_mm, lo, hi, 4 * s2_over_r,
-        press.depth_mm.back(), n, slope);
-    ASSERT_GT(n, 50);
-    EXPECT_GE(lo, 1.00) << "R " << c.radius_mm;
-    EXPECT_LE(hi, 1.10) << "R " << c.radius_mm;
-    EXPECT_NEAR(slope, 1.5, 0.1) << "R " << c.radius_mm;
+// One test a tool, so that ctest runs the two (each a fine mesh, two minutes under ASan) side
+// by side.
+class FemHertz : public ::testing::TestWithParam<PressCase> {};
+
+TEST_P(FemHertz, APressOnAVoxelBlockStartsAtItsNominalSurfaceAndFollowsHertz) {
+  const PressCase c = GetParam();
+  const Press press = press_block(c);
+  // One surface for both models: the FEM feels the block where the voxel model's density
+  // crosses 1/2 (its mesh over the voxel centres started half a voxel, 1 mm, deeper).
+  EXPECT_GE(press.onset_depth_mm, 0.0) << "R " << c.radius_mm;
+  EXPECT_LE(press.onset_depth_mm, 0.01) << "R " << c.radius_mm;
+  double lo = 1e9, hi = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int n = 0;
+  const double s2_over_r = press.edge_mm * press.edge_mm / c.radius_mm;
+  for (std::size_t k = 0; k < press.depth_mm.size(); ++k) {
+    const double d = press.depth_mm[k];
+    if (d < 4 * s2_over_r) continue;
+    const double ratio = press.force_n[k] / hertz_n(c.radius_mm, d);
+    lo = std::min(lo, ratio), hi = std::max(hi, ratio);
+    const double x = std::log(d), y = std::log(press.force_n[k]);
+    sx += x, sy += y, sxx += x * x, sxy += x * y, ++n;
   }
+  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  std::printf(
+      "R %.0f mm, edges %.2f mm: onset %.4f mm deep, F/F_Hertz %.3f..%.3f over "
+      "d %.2f..%.2f mm (%d ticks), slope %.3f\n",
+      c.radius_mm, press.edge_mm, press.onset_depth_mm, lo, hi, 4 * s2_over_r,
+      press.depth_mm.back(), n, slope);
+  ASSERT_GT(n, 50);
+  EXPECT_GE(lo, 1.00) << "R " << c.radius_mm;
+  EXPECT_LE(hi, 1.10) << "R " << c.radius_mm;
+  EXPECT_NEAR(slope, 1.5, 0.1) << "R " << c.radius_mm;
 }
+
+INSTANTIATE_TEST_SUITE_P(Tools, FemHertz, ::testing::Values(PressCase{4.0, 5}, PressCase{10.0, 4}),
+                         [](const ::testing::TestParamInfo<PressCase>& info) {
+                           return "R" + std::to_string(static_cast<int>(info.param.radius_mm)) +
+                                  "mm";
+                         });
 
 }  // namespace
 }  // namespace hapvox::haptics
