@@ -9,7 +9,9 @@ namespace {
 // The two vectorisable passes, built for AVX2 and for the baseline, picked at load time.
 // "avx2" leaves out FMA: a fused multiply-add would round differently from the scalar
 // reads these must equal.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// Not under ThreadSanitizer: the clones' resolver runs while the program is relocated,
+// before TSan's runtime starts, and an instrumented resolver crashes it.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_THREAD__)
 #define HAPVOX_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define HAPVOX_VECTOR_CLONES
