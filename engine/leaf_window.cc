@@ -6,7 +6,6 @@ namespace hapvox::engine {
 namespace {
 
 constexpr int kLeafDim = 8;
-constexpr int kLeafMask = kLeafDim - 1;
 // Leaves of slack around the tool's reach: the centre moves up to about a leaf (8 voxels)
 // before the table is rebuilt.
 constexpr int kMarginLeaves = 2;
