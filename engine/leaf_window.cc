@@ -9,8 +9,11 @@ constexpr int kLeafDim = 8;
 // Leaves of slack around the tool's reach: the centre moves up to about a leaf (8 voxels)
 // before the table is rebuilt.
 constexpr int kMarginLeaves = 2;
-// Far outside any grid (a trace in the wrong units): index arithmetic would overflow.
-constexpr double kMaxIndex = 1 << 29;
+// Far outside any grid (a trace in the wrong units): the reads are then left to the
+// accessor. Below 2^22 a float holds every index with a quarter voxel to spare, so the
+// float sums of the reads (a float centre plus float offsets) stay within the voxel of slack
+// cover() keeps each way; beyond it they could step past the table.
+constexpr double kMaxIndex = 1 << 22;
 
 }  // namespace
 

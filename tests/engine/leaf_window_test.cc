@@ -98,7 +98,9 @@ TEST(LeafWindow, RefusesACentreTooFarOutAndAnUnreservedWindow) {
   LeafWindow window;
   window.reserve(Eigen::Vector3d::Constant(6.0));
   EXPECT_FALSE(window.cover(Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0), a));
-  EXPECT_FALSE(window.cover(Eigen::Vector3d(0, 1e12, 0), a));  // a trace in metres read as mm
+  EXPECT_FALSE(window.cover(Eigen::Vector3d(0, 1e12, 0), a));  // a trace in nm read as mm
+  // Past 2^22 voxels a float no longer holds the reads' positions to a quarter voxel.
+  EXPECT_FALSE(window.cover(Eigen::Vector3d(0, 0, 5e6), a));
   EXPECT_EQ(window.rebuilds(), 0u);
 }
 

@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <ostream>
 #include <vector>
 
 #include "engine/labels/materials.h"
@@ -40,6 +41,12 @@ struct PressCase {
   double radius_mm;
   int tool_levels;  // edges of kCoarseSpacingMm / 2^levels under the tool
 };
+
+// gtest names each case by this, not by the struct's bytes (padding included).
+void PrintTo(const PressCase& c, std::ostream* out) {
+  *out << "R " << c.radius_mm << " mm, edges of " << kCoarseSpacingMm / (1 << c.tool_levels)
+       << " mm";
+}
 
 struct Press {
   double edge_mm = 0;
