@@ -41,6 +41,15 @@ MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
   }
   grid_->tree().voxelizeActiveTiles();
   accessor_.clear();
+  // The flow's visited set, dense over the volume and a margin the clay may be pushed
+  // into, allocated now rather than on the relaxation thread.
+  openvdb::CoordBBox box(openvdb::Coord(0),
+                         openvdb::Coord(dims_.x() - 1, dims_.y() - 1, dims_.z() - 1));
+  box.expand(grid_->evalActiveVoxelBoundingBox());
+  box.expand(kFlowMarginVoxels);
+  flow_visited_ = VisitedSet(box);
+  flow_queue_.resize(kFlowQueueReserve);  // written once, so its pages are there
+  flow_queue_.clear();
   grid_units_ = summed_mass_units();  // from here on every change goes through set()
 }
 
@@ -205,9 +214,7 @@ void MassGrid::start_flow() {
   flow_queue_.clear();
   flow_head_ = 0;
   for (const openvdb::Coord& ijk : pool_sources_) {
-    if (flow_visited_accessor_.isValueOn(ijk)) continue;
-    flow_visited_accessor_.setValueOn(ijk);
-    flow_queue_.push_back(ijk);
+    if (flow_visited_.insert(ijk)) flow_queue_.push_back(ijk);
   }
   pool_sources_.clear();
 }
@@ -215,16 +222,13 @@ void MassGrid::start_flow() {
 std::size_t MassGrid::advance_flow(std::size_t max_steps) {
   static constexpr int kSteps[6][3] = {{0, 0, 1},  {0, 0, -1}, {1, 0, 0},
                                        {-1, 0, 0}, {0, 1, 0},  {0, -1, 0}};
-  auto& visited = flow_visited_accessor_;
   std::size_t steps = 0;
   while (flow_units_ > 0 && flow_head_ < flow_queue_.size() && steps < max_steps) {
     const openvdb::Coord u = flow_queue_[flow_head_++];
     ++steps;
     for (const auto& step : kSteps) {
       const openvdb::Coord n = u.offsetBy(step[0], step[1], step[2]);
-      if (visited.isValueOn(n)) continue;
-      visited.setValueOn(n);
-      if (under_tool(n)) continue;
+      if (!flow_visited_.insert(n) || under_tool(n)) continue;
       std::int32_t units = accessor_.getValue(n);
       if (units < normal_units_ && !carved_accessor_.isValueOn(n)) {
         const std::int64_t deposit = std::min<std::int64_t>(normal_units_ - units, flow_units_);
@@ -257,7 +261,7 @@ void MassGrid::end_flow() {
   flow_active_ = false;
   flow_queue_.clear();
   flow_head_ = 0;
-  flow_visited_->clear();
+  flow_visited_.clear();
   ++work_.flows;
 }
 

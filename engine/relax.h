@@ -50,12 +50,14 @@
 
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <queue>
 #include <vector>
 
 #include "engine/density_field.h"
 #include "engine/surface_change.h"
+#include "engine/visited_set.h"
 
 namespace hapvox::engine {
 
@@ -169,7 +171,33 @@ class MassGrid {
 
   /// True when the last deletion's sweep covers any part of the voxel (coverage above 0):
   /// relaxation and the flow never give to it until the next deletion moves the tool.
-  bool under_tool(const openvdb::Coord& ijk) const;
+  /// Asked of every neighbour relaxation gives to and the flow passes, so it is inline and
+  /// scalar; its arithmetic is relax_deletion.cc's from_segment and squaredNorm, operation
+  /// for operation, so it answers as they did to the last bit.
+  bool under_tool(const openvdb::Coord& ijk) const {
+    if (!has_tool_) return false;
+    const double px = ijk.x() * voxel_size_mm_.x(), py = ijk.y() * voxel_size_mm_.y(),
+                 pz = ijk.z() * voxel_size_mm_.z();
+    double rx = px - tool_a_mm_.x(), ry = py - tool_a_mm_.y(), rz = pz - tool_a_mm_.z();
+    if (tool_len2_mm2_ >= 0.0) {  // a capsule; a sphere's r is p - a
+      const double t =
+          tool_len2_mm2_ > 0.0
+              ? std::clamp((rx * tool_ab_mm_.x() + ry * tool_ab_mm_.y() + rz * tool_ab_mm_.z()) /
+                               tool_len2_mm2_,
+                           0.0, 1.0)
+              : 0.0;
+      rx = px - (tool_a_mm_.x() + t * tool_ab_mm_.x());
+      ry = py - (tool_a_mm_.y() + t * tool_ab_mm_.y());
+      rz = pz - (tool_a_mm_.z() + t * tool_ab_mm_.z());
+    }
+    const double dist2 = rx * rx + ry * ry + rz * rz;
+    // Coverage is above 0 where the distance is below r + w/2, the width w between the
+    // smallest voxel side and |h|: surely so within r + min h / 2, never beyond r + |h|/2 (a
+    // micron of margin each way).
+    if (dist2 <= tool_covers_within_mm2_) return true;
+    if (dist2 >= tool_misses_beyond_mm2_) return false;
+    return covered_in_band(Vec3d(rx, ry, rz), dist2);
+  }
 
   const RelaxWork& work() const { return work_; }
   const openvdb::Int32Grid& grid() const { return *grid_; }
@@ -206,6 +234,11 @@ class MassGrid {
     double core_radius_mm = 0.0;
   };
 
+  // Voxels past the volume's box that the flow's visited set still holds densely (clay
+  // pushed beyond the edge), and the search queue's room made at construction.
+  static constexpr int kFlowMarginVoxels = 8;
+  static constexpr std::size_t kFlowQueueReserve = std::size_t{1} << 16;
+
   void set(const openvdb::Coord& ijk, std::int32_t units);
   void activate_if_over(const openvdb::Coord& ijk, std::int32_t units);
   /// Fraction of a voxel centred at p the swept sphere covers (a linear ramp across the
@@ -226,6 +259,8 @@ class MassGrid {
   std::size_t delete_in_leaves(const Sweep& s);
   /// Empties one voxel in partial volume and pushes what it loses; true if it lost any.
   bool delete_voxel(const Sweep& s, const openvdb::Coord& source);
+  /// under_tool between its two bounds: the coverage ramp itself.
+  bool covered_in_band(const Vec3d& r_mm, double dist2_mm2) const;
   void relax_voxel(const openvdb::Coord& ijk, std::int32_t units);
   void start_flow();
   std::size_t advance_flow(std::size_t max_steps);
@@ -258,8 +293,7 @@ class MassGrid {
   openvdb::Coord flow_first_source_;
   std::vector<openvdb::Coord> flow_queue_;
   std::size_t flow_head_ = 0;
-  openvdb::MaskGrid::Ptr flow_visited_ = openvdb::MaskGrid::create(false);
-  openvdb::MaskGrid::Accessor flow_visited_accessor_ = flow_visited_->getAccessor();
+  VisitedSet flow_visited_;  // dense over the volume's box, sized at construction
   // Voxels emptied by deletions (and not refilled by one since): never room for the flow.
   openvdb::MaskGrid::Ptr carved_ = openvdb::MaskGrid::create(false);
   openvdb::MaskGrid::Accessor carved_accessor_ = carved_->getAccessor();
@@ -275,6 +309,8 @@ class MassGrid {
   Vec3d last_to_mm_ = Vec3d::Zero();
   Vec3d tool_a_mm_ = Vec3d::Zero();
   Vec3d tool_b_mm_ = Vec3d::Zero();
+  Vec3d tool_ab_mm_ = Vec3d::Zero();  // b - a
+  double tool_len2_mm2_ = -1.0;       // |b - a|^2; -1 for a sphere (a == b)
   double tool_radius_mm_ = 0.0;
   double tool_covers_within_mm2_ = -1.0, tool_misses_beyond_mm2_ = 0.0;  // under_tool's bounds
 };

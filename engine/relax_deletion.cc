@@ -108,17 +108,8 @@ double MassGrid::tool_coverage(const Vec3d& p_mm, const Vec3d& a_mm, const Vec3d
   return coverage_at(r, r.norm(), radius_mm, voxel_size_mm_);
 }
 
-bool MassGrid::under_tool(const openvdb::Coord& ijk) const {
-  if (!has_tool_) return false;
-  const Vec3d p = Vec3d(ijk.x(), ijk.y(), ijk.z()).cwiseProduct(voxel_size_mm_);
-  const Vec3d r = from_segment(p, tool_a_mm_, tool_b_mm_);
-  const double dist2 = r.squaredNorm();
-  // Coverage is above 0 where the distance is below r + w/2, the width w between the
-  // smallest voxel side and |h|: surely so within r + min h / 2, never beyond r + |h|/2 (a
-  // micron of margin each way); relaxation asks this of every neighbour it gives to.
-  if (dist2 <= tool_covers_within_mm2_) return true;
-  if (dist2 >= tool_misses_beyond_mm2_) return false;
-  return coverage_at(r, std::sqrt(dist2), tool_radius_mm_, voxel_size_mm_) > 0.0;
+bool MassGrid::covered_in_band(const Vec3d& r_mm, double dist2_mm2) const {
+  return coverage_at(r_mm, std::sqrt(dist2_mm2), tool_radius_mm_, voxel_size_mm_) > 0.0;
 }
 
 double MassGrid::sweep_coverage(const Sweep& s, const Vec3d& p_mm) const {
@@ -162,6 +153,9 @@ std::size_t MassGrid::apply_deletion(const SurfaceChange& change) {
   tool_a_mm_ = s.a_mm.cwiseQuotient(voxel_size_mm_).cwiseProduct(voxel_size_mm_);
   tool_b_mm_ = s.b_mm.cwiseQuotient(voxel_size_mm_).cwiseProduct(voxel_size_mm_);
   tool_radius_mm_ = s.radius_mm;
+  // under_tool's from_segment, taken apart: a sphere when the ends are equal.
+  tool_ab_mm_ = tool_b_mm_ - tool_a_mm_;
+  tool_len2_mm2_ = tool_a_mm_ == tool_b_mm_ ? -1.0 : tool_ab_mm_.squaredNorm();
   const double covers_mm = s.radius_mm + 0.5 * voxel_size_mm_.minCoeff() - 1e-3;
   tool_covers_within_mm2_ = covers_mm > 0.0 ? covers_mm * covers_mm : -1.0;
   tool_misses_beyond_mm2_ = s.zero_beyond_mm2;  // coverage 0 beyond the same bound
