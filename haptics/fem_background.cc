@@ -300,7 +300,7 @@ void FemBackgroundStage::fem_step(const Vec3d& device_mm, const Vec3d& tick_prox
   const int dofs = 3 * model_->mesh().vertex_count();
   const Eigen::VectorXd& prescribed = model_->prescribed_mm();
   if (corotational_ != nullptr) {
-    displacement_mm_ = corotational_->step_mm(displacement_mm_, loads, prescribed);
+    displacement_mm_ = corotational_step(proxy_mm, loads);
   } else {
     displacement_mm_ = model_->linear().solve_mm(loads, prescribed);
   }
@@ -313,6 +313,31 @@ void FemBackgroundStage::fem_step(const Vec3d& device_mm, const Vec3d& tick_prox
   keep_step(FemFrame{tick,
                      std::vector<double>(displacement_mm_.data(), displacement_mm_.data() + dofs),
                      static_cast<int>(remeshes_.size()), steps_ - 1});
+}
+
+Eigen::VectorXd FemBackgroundStage::corotational_step(const Vec3d& proxy_mm,
+                                                      Eigen::VectorXd& loads_n) {
+  const FemOptions& o = model_->options();
+  // A grab holds its captured vertices at the proxy's offset from where it took them (the
+  // first step: where they are), and the snapshot's forces are what holds them there.
+  std::vector<int> held_dofs;
+  std::vector<double> held_mm;
+  if (o.interaction == FemInteraction::kGrab) {
+    const Vec3d offset_mm = steps_ == 0 ? Vec3d::Zero() : Vec3d(proxy_mm - current_.anchor_mm);
+    for (const std::int32_t v : captured_) {
+      for (int axis = 0; axis < 3; ++axis) {
+        held_dofs.push_back(engine::fem::dof_index(v, axis));
+        held_mm.push_back(offset_mm(axis));
+      }
+    }
+  }
+  Eigen::VectorXd held_n;
+  Eigen::VectorXd u =
+      corotational_->equilibrium_mm(displacement_mm_, loads_n, model_->prescribed_mm(), held_dofs,
+                                    held_mm, o.equilibrium, &last_equilibrium_, &held_n);
+  for (std::size_t h = 0; h < held_dofs.size(); ++h) loads_n(held_dofs[h]) = held_n(h);
+  if (!last_equilibrium_.converged) ++unconverged_steps_;
+  return u;
 }
 
 void FemBackgroundStage::keep_step(FemFrame step) {

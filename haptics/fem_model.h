@@ -68,8 +68,10 @@ struct FemOptions {
   /// session of any length keeps them in bounded memory, spread over the whole run
   /// (FemBackgroundStage::frames()).
   double kept_steps_mb = 256.0;
-  /// Co-rotational mode.
+  /// Co-rotational mode: the warped system's solver, and each FEM step's equilibrium
+  /// iteration (its tolerance, its safeguard).
   engine::fem::CorotationalOptions corotational;
+  engine::fem::EquilibriumOptions equilibrium;
 };
 
 /// Throws InputError("fem options", ...) for a radius, coupling, rate or step interval that
@@ -183,6 +185,10 @@ class FemBackgroundStage final : public BackgroundStage {
   /// The vertices a grab captured (empty for a press).
   const std::vector<std::int32_t>& captured_vertices() const { return captured_; }
   std::uint64_t steps() const { return steps_; }
+  /// Co-rotational: the last step's equilibrium solve, and how many steps ended short of
+  /// the tolerance (their iterations spent; the next step goes on from there).
+  const engine::fem::EquilibriumReport& last_equilibrium() const { return last_equilibrium_; }
+  std::uint64_t unconverged_steps() const { return unconverged_steps_; }
   /// The model the FEM steps now: the run's, or the last remesh taken over.
   const FemModel& model() const { return *model_; }
   /// The remeshes taken over, in order (frames with mesh = k + 1 are the k-th's).
@@ -212,6 +218,9 @@ class FemBackgroundStage final : public BackgroundStage {
   // One FEM step for the device at `device_mm` whose tick left the proxy at `proxy_mm`
   // (the press normals' centre), the step's frame recorded for `tick`.
   void fem_step(const Vec3d& device_mm, const Vec3d& proxy_mm, std::int64_t tick);
+  // Co-rotational: the equilibrium for `loads_n` (a grab's captured vertices held at the
+  // offset of the proxy at `proxy_mm`, their loads replaced by what holds them there).
+  Eigen::VectorXd corotational_step(const Vec3d& proxy_mm, Eigen::VectorXd& loads_n);
   // Appends `step` to frames_ (the last one stays only if kept), thinning them to every
   // other kept step while they are over the budget.
   void keep_step(FemFrame step);
@@ -239,6 +248,8 @@ class FemBackgroundStage final : public BackgroundStage {
   std::unique_ptr<FemRemesh> rebuilt_;
   std::exception_ptr rebuild_failure_;
   std::unique_ptr<engine::fem::CorotationalFem> corotational_;
+  engine::fem::EquilibriumReport last_equilibrium_;
+  std::uint64_t unconverged_steps_ = 0;
   Eigen::VectorXd displacement_mm_;
   ContactSnapshot current_;  // what was published last (the FEM thread's copy)
   PressScratch scratch_;

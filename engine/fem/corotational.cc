@@ -32,17 +32,34 @@ CorotationalFem::CorotationalFem(TetMesh mesh, std::span<const TetMaterial> mate
   }
 }
 
-std::vector<Eigen::Matrix3d> CorotationalFem::rotations_of(
-    const Eigen::VectorXd& displacement_mm) const {
+std::vector<Eigen::Matrix3d> CorotationalFem::rotations_of(const Eigen::VectorXd& displacement_mm,
+                                                           int* inverted_tets) const {
   HAPVOX_CHECK_EQ(displacement_mm.size(), rest_.partition().dof_count());
   const TetMesh& m = rest_.mesh();
   std::vector<Eigen::Matrix3d> rotations;
   rotations.reserve(m.tets.size());
+  int inverted = 0;
   for (int t = 0; t < m.tet_count(); ++t) {
-    rotations.push_back(polar_rotation(
-        deformation_gradient(rest_.shape(t).gradients_per_mm, gather(m.tets[t], displacement_mm))));
+    const Eigen::Matrix3d f =
+        deformation_gradient(rest_.shape(t).gradients_per_mm, gather(m.tets[t], displacement_mm));
+    if (f.determinant() <= 0.0) ++inverted;
+    rotations.push_back(polar_rotation(f));
   }
+  if (inverted_tets != nullptr) *inverted_tets = inverted;
   return rotations;
+}
+
+void CorotationalFem::set_tangent(std::vector<Eigen::Matrix3d> rotations) {
+  rotations_ = std::move(rotations);
+  rest_.assembler().assemble([this](int t) { return warped(t); }, warped_ff_);
+  stepped_ = true;
+  use_warped_factor_ = rest_.partition().free_count() <= options_.refactor_max_free_dofs;
+  if (use_warped_factor_) {
+    warped_ldlt_.factorize(warped_ff_);
+    check_positive_definite(warped_ldlt_);
+  } else {
+    vertex_rotations_ = vertex_rotations(rest_.mesh(), rotations_, tet_volumes_mm3_);
+  }
 }
 
 ElementMatrix CorotationalFem::warped(int tet) const {
@@ -58,9 +75,11 @@ ElementMatrix CorotationalFem::warped(int tet) const {
 }
 
 Eigen::VectorXd CorotationalFem::forces_n(const std::vector<Eigen::Matrix3d>& rotations,
-                                          const Eigen::VectorXd& displacement_mm) const {
+                                          const Eigen::VectorXd& displacement_mm,
+                                          double* energy_nmm) const {
   const TetMesh& m = rest_.mesh();
   Eigen::VectorXd forces = Eigen::VectorXd::Zero(displacement_mm.size());
+  double energy = 0.0;
   for (int t = 0; t < m.tet_count(); ++t) {
     const Tet& tet = m.tets[t];
     const Eigen::Matrix3d& r = rotations[t];
@@ -74,9 +93,11 @@ Eigen::VectorXd CorotationalFem::forces_n(const std::vector<Eigen::Matrix3d>& ro
       unrotated.segment<3>(3 * a) = r.transpose() * edge - rest_edge;
     }
     ElementVector f = rest_.element_stiffness(t) * unrotated;
+    if (energy_nmm != nullptr) energy += 0.5 * unrotated.dot(f);
     for (int a = 0; a < 4; ++a) f.segment<3>(3 * a) = r * f.segment<3>(3 * a).eval();
     scatter_add(tet, f, forces);
   }
+  if (energy_nmm != nullptr) *energy_nmm = energy;
   return forces;
 }
 
@@ -94,9 +115,8 @@ Eigen::VectorXd CorotationalFem::step_mm(const Eigen::VectorXd& guess_mm,
     throw InputError("FEM step", "guess, loads and prescribed displacements need " +
                                      std::to_string(n) + " entries each");
   }
-  rotations_ = rotations_of(guess_mm);
-  rest_.assembler().assemble([this](int t) { return warped(t); }, warped_ff_);
-  stepped_ = true;
+  set_tangent(rotations_of(guess_mm));
+  tangent_at_mm_ = guess_mm;
 
   // With the rotations frozen the forces are affine in u: for u = u_C + u_F (prescribed
   // part plus free part), K_R,FF u_F = f_F - forces(u_C)_F.
@@ -105,14 +125,10 @@ Eigen::VectorXd CorotationalFem::step_mm(const Eigen::VectorXd& guess_mm,
       partition.free_part(loads_n) - partition.free_part(forces_n(rotations_, u));
   CorotationalStepReport local;
   Eigen::VectorXd u_free;
-  use_warped_factor_ = partition.free_count() <= options_.refactor_max_free_dofs;
   if (use_warped_factor_) {
-    warped_ldlt_.factorize(warped_ff_);
-    check_positive_definite(warped_ldlt_);
     u_free = warped_ldlt_.solve(rhs);
     local.refactorised = true;
   } else {
-    vertex_rotations_ = vertex_rotations(rest_.mesh(), rotations_, tet_volumes_mm3_);
     u_free = partition.free_part(guess_mm);  // warm start
     conjugate_gradients(rhs, u_free, local);
   }
