@@ -247,7 +247,12 @@ std::size_t MassGrid::delete_in_leaves(const Sweep& s) {
             if (!(known >> c & 1u)) {
               known |= std::uint64_t{1} << c;
               reached[c] = column_span(s, i, j, k_lo[c], k_hi[c]);
-              if (!core_span(s, i, j, core_lo[c], core_hi[c])) core_hi[c] = core_lo[c] - 1;
+              if (!core_span(s, i, j, core_lo[c], core_hi[c])) {
+                // An empty span, set here: core_span may leave both unwritten, and
+                // core_lo - 1 of an unwritten int was undefined (UBSan caught INT_MIN - 1).
+                core_lo[c] = 0;
+                core_hi[c] = -1;
+              }
             }
             if (!reached[c]) continue;
             bits &= column_bits(k_lo[c], k_hi[c], oz) & ~column_bits(core_lo[c], core_hi[c], oz);
