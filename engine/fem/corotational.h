@@ -91,9 +91,9 @@ class CorotationalFem {
   /// the tangent: K_R is positive definite, so each update is a descent direction, and the
   /// line search makes every iteration lower the energy. The held DOFs are first moved to
   /// their targets along the linear response (K_R^-1 H^T W^-1 (held - u_H)); later updates
-  /// leave them still (projected with W = H K_R^-1 H^T). `held_forces_n` (if given) gets
-  /// the load each held DOF needs, in `held_dofs` order. Leaves the rotations and tangent
-  /// of the solution for solve_free.
+  /// leave them still (projected with the first tangent's W = H K_R^-1 H^T). `held_forces_n` (if
+  /// given) gets the load each held DOF needs, in `held_dofs` order. Leaves the rotations and
+  /// tangent of the solution for solve_free.
   Eigen::VectorXd equilibrium_mm(const Eigen::VectorXd& guess_mm, const Eigen::VectorXd& loads_n,
                                  const Eigen::VectorXd& prescribed_mm,
                                  std::span<const int> held_dofs, std::span<const double> held_mm,

@@ -51,7 +51,7 @@ Eigen::VectorXd CorotationalFem::equilibrium_mm(
     HAPVOX_CHECK(partition.is_free(held_dofs[h]));
     held_free[h] = partition.free_index(held_dofs[h]);
   }
-  // K^-1 H^T and W^-1 = (H K^-1 H^T)^-1 for the current tangent.
+  // K^-1 H^T and W^-1 = (H K^-1 H^T)^-1 for the tangent they are made with.
   Eigen::MatrixXd k_inv_ht, w_inverse;
   auto project_held = [&] {
     if (held_count == 0) return;
@@ -107,7 +107,11 @@ Eigen::VectorXd CorotationalFem::equilibrium_mm(
     for (const int f : held_free) residual(f) = 0.0;
     Eigen::VectorXd du = solve_free(residual);
     if (held_count > 0) {
-      project_held();
+      // The first tangent's K^-1 H^T and W^-1 serve every iteration of the call: H K^-1 H^T
+      // is W, so the update still leaves the held DOFs exactly still, and the line search
+      // keeps it going down; 3 solves a captured vertex each iteration cost more than
+      // they saved (CG on the large meshes).
+      if (k_inv_ht.size() == 0) project_held();
       Eigen::VectorXd moved(held_count);
       for (int h = 0; h < held_count; ++h) moved(h) = du(held_free[h]);
       du -= k_inv_ht * (w_inverse * moved);
