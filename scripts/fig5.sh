@@ -7,7 +7,7 @@
 # OUT/fig5_grab.png: the displacement on the mid-slice through the spheres involved; and
 # OUT/fig5_render.png: the deformed CT itself, drawn from the proxy mesh (docs/render.md) as
 # the paper shows it: initial, pulled, grabbed, and grabbed with uniform moduli.
-# A stiff coupling (1e5 N/mm, and a force limit as high) makes the grab displacement-
+# A stiff coupling (1000 N/mm, the most `replay` takes; a force limit far above it) makes the grab displacement-
 # controlled, as in the paper: the captured vertices end within ~0.01 mm of the 8 mm.
 # Usage: scripts/fig5.sh [OUT_DIR] [extra replay flags...]  (needs build/tools/hapvox)
 set -euo pipefail
@@ -26,7 +26,7 @@ for experiment in pull grab; do
     "$hapvox" replay "$root/traces/fig5_$experiment.csv" --volume four-spheres --model fem \
       --materials "$root/data/$materials.toml" --interaction grab --boundary-levels 1 \
       --tool-diameter-mm "${capture_diameter_mm[$experiment]}" \
-      --coupling-n-per-mm 100000 --max-force-n 100000 --ramp-in-s 0 -q -o "$session" \
+      --coupling-n-per-mm 1000 --max-force-n 100000 --ramp-in-s 0 -q -o "$session" \
       --render-dir "$out/frames_${experiment}_$materials" --render-every-ticks 1000000 \
       --render-size 320 --render-transfer "$root/data/four_spheres.tf" \
       --render-azimuth-deg -30 --render-elevation-deg 30 "$@"
