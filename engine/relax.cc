@@ -47,7 +47,7 @@ MassGrid::MassGrid(const DensityField& field, const RelaxOptions& options)
                          openvdb::Coord(dims_.x() - 1, dims_.y() - 1, dims_.z() - 1));
   box.expand(grid_->evalActiveVoxelBoundingBox());
   box.expand(kFlowMarginVoxels);
-  flow_visited_ = VisitedSet(box);
+  flow_visited_.make_dense(box);
   flow_queue_.resize(kFlowQueueReserve);  // written once, so its pages are there
   flow_queue_.clear();
   grid_units_ = summed_mass_units();  // from here on every change goes through set()

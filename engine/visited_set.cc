@@ -4,7 +4,10 @@
 
 namespace hapvox::engine {
 
-VisitedSet::VisitedSet(const openvdb::CoordBBox& box) {
+void VisitedSet::make_dense(const openvdb::CoordBBox& box) {
+  clear();
+  box_ = openvdb::CoordBBox();
+  bits_.clear();
   if (box.empty() || box.volume() > kMaxDenseVoxels) return;
   box_ = box;
   dim_x_ = static_cast<std::uint64_t>(box.dim().x());

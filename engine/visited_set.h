@@ -22,7 +22,13 @@ class VisitedSet {
 
   VisitedSet() = default;
   /// Dense over `box` (inclusive) when it holds at most kMaxDenseVoxels voxels.
-  explicit VisitedSet(const openvdb::CoordBBox& box);
+  explicit VisitedSet(const openvdb::CoordBBox& box) { make_dense(box); }
+  // The sparse part's accessor is bound to its own tree: not copied or moved.
+  VisitedSet(const VisitedSet&) = delete;
+  VisitedSet& operator=(const VisitedSet&) = delete;
+
+  /// Forgets every mark and makes the set dense over `box` (as the constructor).
+  void make_dense(const openvdb::CoordBBox& box);
 
   /// Marks the voxel; true if it was not marked before.
   bool insert(const openvdb::Coord& ijk) {
