@@ -117,8 +117,10 @@ Eigen::VectorXd CorotationalFem::equilibrium_mm(
       du -= k_inv_ht * (w_inverse * moved);
       for (const int f : held_free) du(f) = 0.0;
     }
-    // The energy's slope along du is -r . du < 0: K_R is positive definite.
-    const double slope = -residual.dot(du);
+    // The energy's slope along du, -r . du: below 0 as K_R is positive definite (the held
+    // projection, made with the first tangent's W, could tilt it; then the energy must
+    // simply not rise).
+    const double slope = std::min(0.0, -residual.dot(du));
     double step = 1.0;
     Eigen::VectorXd trial = u, trial_residual;
     std::vector<Eigen::Matrix3d> trial_rotations;
